@@ -1,0 +1,34 @@
+"""Render the pictures used by README.md into docs/: ``python docs/make_readme_images.py``."""
+
+import os
+from pathlib import Path
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+
+import gymnasium as gym
+import numpy as np
+import pygame
+
+import warehouse_phys
+from warehouse_phys import Action
+
+HERE = Path(__file__).resolve().parent
+
+
+def save(frame: np.ndarray, name: str) -> None:
+    pygame.image.save(pygame.surfarray.make_surface(frame.transpose(1, 0, 2)), str(HERE / name))
+    print(f"wrote {HERE / name}")
+
+
+def main() -> None:
+    env = gym.make(warehouse_phys.GRID_ENV_ID, render_mode="rgb_array")
+    env.reset(options={"target": (3, 3)})
+    for action in (Action.DOWN, Action.RIGHT, Action.DOWN, Action.RIGHT):
+        env.step(action)
+    save(env.render(), "grid_frame.png")
+    env.close()
+
+
+if __name__ == "__main__":
+    main()

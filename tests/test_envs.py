@@ -1,0 +1,339 @@
+"""The grid twin as Gymnasium users meet it: rules, spaces, seeding, checker, bad input."""
+
+import math
+import subprocess
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.error import ResetNeeded
+from gymnasium.utils.env_checker import check_env
+
+import warehouse_phys
+from warehouse_phys import Action, WarehouseGridEnv
+
+ENV_ID = "warehouse-robot-v0"
+DELTAS = {0: (0, -1), 1: (1, 0), 2: (0, 1), 3: (-1, 0)}  # the rule, written out independently
+
+
+def rule_next(rows, cols, cell, action):
+    row = min(max(cell[0] + DELTAS[action][0], 0), rows - 1)
+    col = min(max(cell[1] + DELTAS[action][1], 0), cols - 1)
+    return row, col
+
+
+# ----------------------------------------------------------------------- rules
+@pytest.mark.parametrize("rows", range(2, 7))
+@pytest.mark.parametrize("cols", range(2, 8))
+def test_every_state_and_action_follows_the_rule(rows, cols):
+    """Exhaustive: every (robot, target) pair of the grid and every action."""
+    env = WarehouseGridEnv(grid_rows=rows, grid_cols=cols)
+    targets = [(r, c) for r in range(1, rows) for c in range(1, cols)]
+    cells = [(r, c) for r in range(rows) for c in range(cols)]
+    for target in targets:
+        for robot in cells:
+            for action in range(4):
+                if robot == target:
+                    # The robot cannot start on the target: step onto it from a neighbour.
+                    env.reset(options={"start": (target[0] - 1, target[1]), "target": target})
+                    env.step(Action.DOWN)
+                else:
+                    env.reset(options={"start": robot, "target": target})
+                obs, reward, terminated, truncated, info = env.step(action)
+                expected = rule_next(rows, cols, robot, action)
+                on_target = expected == target
+                assert obs.tolist() == [*expected, *target], (robot, target, action)
+                assert reward == (1.0 if on_target else 0.0)
+                assert terminated is on_target
+                assert truncated is False
+                assert info["optimal_steps"] == abs(expected[0] - target[0]) + abs(
+                    expected[1] - target[1]
+                )
+
+
+def test_reset_puts_robot_on_start_and_target_in_allowed_cells():
+    env = WarehouseGridEnv()
+    for seed in range(200):
+        obs, info = env.reset(seed=seed)
+        assert obs[:2].tolist() == [0, 0]
+        assert 1 <= obs[2] <= 3
+        assert 1 <= obs[3] <= 4
+        assert info == {"optimal_steps": int(obs[2] + obs[3])}
+
+
+def test_reward_and_termination_on_reaching_the_target():
+    env = WarehouseGridEnv()
+    env.reset(options={"target": (1, 1)})
+    obs, reward, terminated, _, info = env.step(Action.RIGHT)
+    assert (obs.tolist(), reward, terminated, info["optimal_steps"]) == (
+        [0, 1, 1, 1],
+        0.0,
+        False,
+        1,
+    )
+    obs, reward, terminated, _, info = env.step(Action.DOWN)
+    assert (obs.tolist(), reward, terminated, info["optimal_steps"]) == ([1, 1, 1, 1], 1.0, True, 0)
+    assert isinstance(reward, float)
+
+
+def test_move_off_the_floor_stays_and_counts_as_a_step():
+    env = gym.make(ENV_ID, max_episode_steps=3)
+    env.reset(seed=0)
+    for _ in range(2):
+        obs, _, _, truncated, _ = env.step(Action.UP)
+        assert obs[:2].tolist() == [0, 0]
+        assert not truncated
+    _, _, _, truncated, _ = env.step(Action.LEFT)
+    assert truncated
+
+
+# ------------------------------------------------------------------ target law
+def chi2_critical(dof: int, z: float = 3.09) -> float:
+    """Upper chi-square quantile (p ~ 0.001) by the Wilson-Hilferty approximation."""
+    return dof * (1 - 2 / (9 * dof) + z * math.sqrt(2 / (9 * dof))) ** 3
+
+
+@pytest.mark.parametrize(("rows", "cols"), [(4, 5), (2, 3), (6, 7)])
+def test_target_distribution_is_uniform_over_allowed_cells(rows, cols):
+    env = WarehouseGridEnv(grid_rows=rows, grid_cols=cols)
+    allowed = [(r, c) for r in range(1, rows) for c in range(1, cols)]
+    draws_per_cell = 4000
+    counts = dict.fromkeys(allowed, 0)
+    env.reset(seed=12345)
+    for _ in range(draws_per_cell * len(allowed)):
+        obs, _ = env.reset()
+        cell = (int(obs[2]), int(obs[3]))
+        assert cell in counts, f"target {cell} outside rows 1..R-1, columns 1..C-1"
+        counts[cell] += 1
+    observed = np.array(list(counts.values()), dtype=float)
+    chi2 = float(((observed - draws_per_cell) ** 2 / draws_per_cell).sum())
+    # A sampler 10 % off on one cell adds 40 to chi2; the bound at p=0.001 is 31 for 11 cells.
+    assert chi2 < chi2_critical(len(allowed) - 1), counts
+    assert np.abs(observed / draws_per_cell - 1).max() < 0.08, counts
+
+
+# ---------------------------------------------------------------- determinism
+def rollout(env, seed, n_episodes=5, n_steps=30):
+    """Targets and observations of a fixed action sequence over several episodes."""
+    actions = np.random.default_rng(seed + 1).integers(4, size=n_steps)
+    record = []
+    obs, _ = env.reset(seed=seed)
+    for _ in range(n_episodes):
+        record.append(obs.tolist())
+        for action in actions:
+            obs, reward, terminated, truncated, info = env.step(int(action))
+            record.append([*obs.tolist(), reward, terminated, truncated, info["optimal_steps"]])
+            if terminated or truncated:
+                break
+        obs, _ = env.reset()
+    return record
+
+
+def test_same_seed_gives_same_targets_and_trajectory():
+    assert rollout(gym.make(ENV_ID), seed=7) == rollout(gym.make(ENV_ID), seed=7)
+
+
+def test_different_seeds_give_different_targets():
+    env = WarehouseGridEnv()
+    firsts = {tuple(env.reset(seed=seed)[0][2:]) for seed in range(40)}
+    assert len(firsts) > 6
+    assert rollout(WarehouseGridEnv(), seed=1) != rollout(WarehouseGridEnv(), seed=2)
+
+
+def test_trajectories_are_identical_across_processes():
+    script = (
+        "import gymnasium as gym, warehouse_phys, json\n"
+        "from tests.test_envs import rollout\n"
+        f"print(json.dumps(rollout(gym.make({ENV_ID!r}), seed=99)))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=True
+    ).stdout
+    import json
+
+    assert json.loads(out) == json.loads(json.dumps(rollout(gym.make(ENV_ID), seed=99)))
+
+
+def test_reset_with_target_option_draws_no_random_number():
+    env = WarehouseGridEnv()
+    env.reset(seed=5)
+    state = env.np_random.bit_generator.state
+    obs, _ = env.reset(options={"target": (2, 3)})
+    assert obs.tolist() == [0, 0, 2, 3]
+    assert env.np_random.bit_generator.state == state
+
+
+# ---------------------------------------------------------- gymnasium contract
+@pytest.mark.parametrize("kwargs", [{}, {"grid_rows": 2, "grid_cols": 2}, {"grid_rows": 7}])
+def test_check_env_passes_with_warnings_as_errors(kwargs):
+    env = gym.make(ENV_ID, **kwargs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
+    env.close()
+
+
+@pytest.mark.parametrize("render_mode", [None, "rgb_array", "ansi", "human"])
+def test_check_env_passes_in_every_render_mode(render_mode):
+    env = gym.make(ENV_ID, render_mode=render_mode)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
+    env.close()
+
+
+def test_spaces_and_observation_type():
+    env = gym.make(ENV_ID, grid_rows=3, grid_cols=6)
+    assert env.action_space == gym.spaces.Discrete(4)
+    assert env.observation_space == gym.spaces.MultiDiscrete([3, 6, 3, 6])
+    obs, _ = env.reset(seed=0)
+    assert obs.dtype == env.observation_space.dtype == np.int64
+    assert obs.shape == (4,)
+    assert obs in env.observation_space
+    q = np.zeros((3, 6, 3, 6, 4))
+    assert q[tuple(obs)].shape == (4,)
+
+
+def test_observations_are_fresh_arrays():
+    env = WarehouseGridEnv()
+    first, _ = env.reset(seed=0)
+    first_copy = first.copy()
+    second, _, _, _, _ = env.step(Action.DOWN)
+    assert first is not second
+    assert not np.shares_memory(first, second)
+    second[:] = 0
+    assert first.tolist() == first_copy.tolist()
+    assert env.step(Action.UP)[0][2:].tolist() == first_copy[2:].tolist()
+
+
+def test_metadata_declares_render_modes_and_fps():
+    assert WarehouseGridEnv.metadata["render_modes"] == ["human", "rgb_array", "ansi"]
+    assert WarehouseGridEnv.metadata["render_fps"] > 0
+
+
+def test_registration_and_default_time_limit():
+    env = gym.make(ENV_ID)
+    assert env.spec.max_episode_steps == warehouse_phys.DEFAULT_MAX_EPISODE_STEPS == 200
+    assert isinstance(env.unwrapped, WarehouseGridEnv)
+    assert (env.unwrapped.grid_rows, env.unwrapped.grid_cols) == (4, 5)
+    env.reset(seed=0)
+    truncated_at = None
+    for step in range(1, 201):
+        _, _, terminated, truncated, _ = env.step(Action.UP)  # never reaches a target
+        assert not terminated
+        if truncated:
+            truncated_at = step
+            break
+    assert truncated_at == 200
+
+
+def test_time_limit_can_be_changed_by_the_user():
+    env = gym.make(ENV_ID, max_episode_steps=5)
+    env.reset(seed=0)
+    assert [env.step(Action.LEFT)[3] for _ in range(5)] == [False] * 4 + [True]
+
+
+def test_module_prefixed_id_works_without_importing_the_package():
+    script = (
+        "import sys, gymnasium as gym\n"
+        "assert 'warehouse_phys' not in sys.modules\n"
+        "env = gym.make('warehouse_phys:warehouse-robot-v0')\n"
+        "print(type(env.unwrapped).__name__, env.reset(seed=0)[0].tolist())\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.startswith("WarehouseGridEnv [0, 0, ")
+
+
+def test_importing_twice_does_not_reregister():
+    import importlib
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        importlib.reload(warehouse_phys)
+    assert gym.make(ENV_ID).spec.id == ENV_ID
+
+
+# ------------------------------------------------------------------ bad input
+@pytest.mark.parametrize(
+    ("action", "error"),
+    [
+        (4, ValueError),
+        (-1, ValueError),
+        (np.int64(17), ValueError),
+        (None, TypeError),
+        (1.0, TypeError),
+        ("1", TypeError),
+        (True, TypeError),
+        ([1], TypeError),
+        (np.array([1, 2]), TypeError),
+        (np.array(1.0), TypeError),
+    ],
+)
+def test_invalid_action_names_it_and_the_range_and_changes_nothing(action, error):
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=3)
+    with pytest.raises(error, match=r"invalid action .*0\.\.3 \(LEFT=0, DOWN=1, RIGHT=2, UP=3\)"):
+        env.step(action)
+    # The environment is still usable and was not moved.
+    after, _, _, truncated, _ = env.step(Action.RIGHT)
+    assert after.tolist() == [obs[0], obs[1] + 1, obs[2], obs[3]]
+    assert env.unwrapped.grid.move((0, 0), Action.RIGHT) == (0, 1)
+    assert not truncated
+
+
+@pytest.mark.parametrize(
+    "action", [2, np.int64(2), np.int8(2), np.uint8(2), np.array(2), Action.RIGHT]
+)
+def test_integer_actions_of_every_kind_are_accepted(action):
+    env = WarehouseGridEnv()
+    env.reset(options={"target": (2, 2)})
+    assert env.step(action)[0][:2].tolist() == [0, 1]
+
+
+def test_stepping_before_reset_raises():
+    with pytest.raises(ResetNeeded, match="reset"):
+        WarehouseGridEnv().step(0)
+    with pytest.raises(ResetNeeded):
+        gym.make(ENV_ID).step(0)
+
+
+@pytest.mark.parametrize(("rows", "cols"), [(1, 5), (4, 1), (0, 3)])
+def test_invalid_grid_size_through_make_is_refused(rows, cols):
+    with pytest.raises(ValueError, match="at least 2"):
+        gym.make(ENV_ID, grid_rows=rows, grid_cols=cols)
+
+
+def test_unknown_render_mode_is_refused():
+    with pytest.raises(ValueError, match="render_mode must be None or one of"):
+        WarehouseGridEnv(render_mode="window")
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"target": (0, 3)}, "not a cell the target may occupy"),
+        ({"target": (9, 9)}, "off the 4x5 grid"),
+        ({"start": (4, 0)}, "off the 4x5 grid"),
+        ({"start": (2, 2), "target": (2, 2)}, "is the target's cell"),
+        ({"start": (1, 2, 3)}, "must be a \\(row, col\\) pair"),
+        ({"start": "a1"}, "must hold two integers"),
+        ({"target": (1.0, 2.0)}, "must hold two integers"),
+        ({"goal": (1, 1)}, "unknown reset option"),
+    ],
+)
+def test_invalid_reset_options_are_refused(options, message):
+    env = WarehouseGridEnv()
+    with pytest.raises(ValueError, match=message):
+        env.reset(options=options)
+
+
+def test_stepping_after_termination_follows_the_same_rules():
+    env = WarehouseGridEnv()
+    env.reset(options={"start": (1, 2), "target": (1, 1)})
+    assert env.step(Action.LEFT)[1:3] == (1.0, True)
+    obs, reward, terminated, _, _ = env.step(Action.DOWN)
+    assert (obs[:2].tolist(), reward, terminated) == ([2, 1], 0.0, False)

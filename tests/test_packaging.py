@@ -1,0 +1,81 @@
+"""The package as a user installs it: wheel contents, sprites outside a checkout, the CLI, lint."""
+
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.mark.slow
+def test_sprites_load_from_an_installed_wheel(tmp_path):
+    source = tmp_path / "src"
+    source.mkdir()
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / name, source / name)
+    for folder in ("warehouse_phys", "sprites"):
+        shutil.copytree(
+            ROOT / folder, source / folder, ignore=shutil.ignore_patterns("__pycache__")
+        )
+    wheels = tmp_path / "wheels"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+         "-w", str(wheels), str(source)],
+        check=True,
+    )  # fmt: skip
+    (wheel,) = wheels.glob("warehouse_phys-*.whl")
+    names = set(zipfile.ZipFile(wheel).namelist())
+    for sprite in ("robot.png", "floor.png", "package.png"):
+        assert f"warehouse_phys/sprites/{sprite}" in names
+
+    site = tmp_path / "site"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site),
+         str(wheel)],
+        check=True,
+    )  # fmt: skip
+    script = (
+        "import warehouse_phys.render as r, gymnasium as gym\n"
+        "print(r.sprite_path('robot.png'))\n"
+        "env = gym.make('warehouse-robot-v0', render_mode='rgb_array')\n"
+        "env.reset(seed=0)\n"
+        "print(env.render().shape)\n"
+    )
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    out = subprocess.run(
+        [sys.executable, "-c", script],
+        cwd=outside,
+        env={**_environ(), "PYTHONPATH": str(site)},
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.splitlines()
+    assert Path(out[0]).is_relative_to(site)
+    assert out[1] == "(280, 320, 3)"
+
+
+def _environ():
+    import os
+
+    return {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+
+
+def test_train_command_says_it_is_not_available_and_fails():
+    result = subprocess.run(
+        [sys.executable, "-m", "warehouse_phys.train"], capture_output=True, text=True
+    )
+    assert result.returncode == 1
+    assert "trainer is not available" in result.stderr
+
+
+@pytest.mark.parametrize("check", [["check"], ["format", "--check"]])
+def test_code_is_ruff_clean(check):
+    result = subprocess.run(
+        [sys.executable, "-m", "ruff", *check, "."], cwd=ROOT, capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stdout + result.stderr

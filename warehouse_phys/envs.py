@@ -1,0 +1,312 @@
+"""The Gymnasium environments of the package.
+
+:class:`WarehouseEnvBase` holds everything an episode needs (spaces, argument
+checks, reset options, the reward rule, observations, rendering). A concrete
+environment only says how the robot gets from one cell to the next by
+overriding :meth:`WarehouseEnvBase._move_robot`; the grid twin applies the rule
+of :class:`~warehouse_phys.grid.WarehouseGrid` directly.
+"""
+
+from __future__ import annotations
+
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.error import ResetNeeded
+
+from warehouse_phys.grid import START_CELL, Action, Cell, WarehouseGrid
+from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
+
+#: The actions in value order, so that ``_ACTIONS[i]`` is ``Action(i)`` without an enum lookup.
+_ACTIONS: tuple[Action, ...] = tuple(Action)
+_ACTION_RANGE = ", ".join(f"{a.name}={a.value}" for a in Action)
+_RESET_OPTIONS = ("start", "target")
+
+
+class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
+    """What every warehouse environment shares; see :class:`WarehouseGridEnv` for the specification.
+
+    Subclasses implement :meth:`_move_robot` and may extend
+    :meth:`_start_episode` (called at the end of every reset).
+    """
+
+    metadata: dict[str, Any] = {  # noqa: RUF012 - Gymnasium reads and copies this class attribute
+        "render_modes": ["human", "rgb_array", "ansi"],
+        "render_fps": 4,
+    }
+
+    def __init__(
+        self,
+        grid_rows: int = 4,
+        grid_cols: int = 5,
+        render_mode: str | None = None,
+        cell_px: int = DEFAULT_CELL_PX,
+    ) -> None:
+        self.grid = WarehouseGrid(grid_rows, grid_cols)
+        self.grid_rows = self.grid.rows
+        self.grid_cols = self.grid.cols
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        self.render_mode = render_mode
+
+        self.action_space = spaces.Discrete(len(Action))
+        self.observation_space = spaces.MultiDiscrete(
+            [self.grid_rows, self.grid_cols, self.grid_rows, self.grid_cols]
+        )
+
+        self._robot: Cell | None = None
+        self._target: Cell | None = None
+        self._last_action: Action | None = None
+        # Built at once so that a bad cell_px fails here, but it loads no pygame until drawing.
+        self._renderer: WarehouseRenderer | None = (
+            WarehouseRenderer(
+                self.grid_rows,
+                self.grid_cols,
+                cell_px=cell_px,
+                render_fps=self.metadata["render_fps"],
+                title=f"warehouse_phys: {type(self).__name__}",
+            )
+            if render_mode in ("human", "rgb_array")
+            else None
+        )
+
+    def step(
+        self, action: int | np.integer
+    ) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
+        """Move the robot by ``action`` and report the new state.
+
+        Raises:
+            gymnasium.error.ResetNeeded: if :meth:`reset` was never called.
+            TypeError: if ``action`` is not an integer (``None``, a float, a bool, ...).
+            ValueError: if ``action`` is an integer outside ``0..3``.
+            Neither error changes the environment.
+        """
+        if self._robot is None:
+            raise ResetNeeded("call reset() before step()")
+        move = _checked_action(action)
+        self._robot = self._move_robot(move)
+        self._last_action = move
+        reward, terminated = self.grid.outcome(self._robot, self._target)
+        if self.render_mode == "human":
+            self.render()
+        return self._get_obs(), reward, terminated, False, self._get_info()
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode: robot on the start cell, target drawn with ``self.np_random``.
+
+        ``options`` may hold ``"target"``, a cell from :attr:`WarehouseGrid.target_cells`
+        to use instead of a random draw (no random number is drawn then), and
+        ``"start"``, any floor cell other than the target for the robot to start on.
+        """
+        super().reset(seed=seed)
+        start, target = self._parse_options(options)
+        if target is None:
+            target = self.grid.sample_target(self.np_random)
+        if start == target:
+            raise ValueError(f"options['start'] {tuple(start)} is the target's cell")
+        self._robot, self._target = start, target
+        self._last_action = None
+        self._start_episode()
+        if self.render_mode == "human":
+            self.render()
+        return self._get_obs(), self._get_info()
+
+    def render(self) -> np.ndarray | str | None:
+        """Render the current state in :attr:`render_mode`.
+
+        ``"rgb_array"`` returns an ``(H, W, 3)`` uint8 array, ``"ansi"`` a string,
+        ``"human"`` draws in a window and returns ``None``.
+        """
+        if self.render_mode is None:
+            gym.logger.warn(
+                "You are calling render method without specifying any render mode. "
+                "You can specify the render_mode at initialization, "
+                f'e.g. gym.make("{self.spec.id if self.spec else type(self).__name__}", '
+                'render_mode="rgb_array")'
+            )
+            return None
+        if self._robot is None:
+            raise ResetNeeded("call reset() before render()")
+        if self.render_mode == "ansi":
+            return ansi_frame(self.grid_rows, self.grid_cols, self._robot, self._target)
+        assert self._renderer is not None
+        if self.render_mode == "rgb_array":
+            return self._renderer.rgb_array(self._robot, self._target, self._status_text())
+        self._renderer.show(self._robot, self._target, self._status_text())
+        return None
+
+    def close(self) -> None:
+        """Close the window, if any, and release pygame; safe to call more than once."""
+        if self._renderer is not None:
+            self._renderer.close()
+
+    @property
+    def user_closed_window(self) -> bool:
+        """Whether the user closed the ``human`` window or pressed Escape; drawing then stops."""
+        return self._renderer is not None and self._renderer.closed_by_user
+
+    # ------------------------------------------------------------ for subclasses
+    def _move_robot(self, action: Action) -> Cell:
+        """Carry out ``action`` from the robot's current cell and return the cell it ends on."""
+        raise NotImplementedError
+
+    def _start_episode(self) -> None:
+        """Called at the end of :meth:`reset`, once the robot and target cells are set."""
+
+    # ------------------------------------------------------------------ helpers
+    def _get_obs(self) -> np.ndarray:
+        robot, target = self._robot, self._target
+        return np.array((robot[0], robot[1], target[0], target[1]), dtype=np.int64)
+
+    def _get_info(self) -> dict[str, Any]:
+        return {"optimal_steps": self.grid.optimal_steps(self._robot, self._target)}
+
+    def _status_text(self) -> str:
+        return "" if self._last_action is None else f"Action: {self._last_action.name}"
+
+    def _parse_options(self, options: dict[str, Any] | None) -> tuple[Cell, Cell | None]:
+        if not options:
+            return START_CELL, None
+        unknown = set(options) - set(_RESET_OPTIONS)
+        if unknown:
+            raise ValueError(
+                f"unknown reset option(s) {sorted(unknown)}; known: {list(_RESET_OPTIONS)}"
+            )
+        start = START_CELL
+        if options.get("start") is not None:
+            start = self._checked_cell("start", options["start"])
+        target = None
+        if options.get("target") is not None:
+            target = self._checked_cell("target", options["target"])
+            if target not in self.grid.target_cells:
+                raise ValueError(
+                    f"options['target'] {tuple(target)} is not a cell the target may occupy "
+                    f"(rows 1..{self.grid_rows - 1}, columns 1..{self.grid_cols - 1})"
+                )
+        return start, target
+
+    def _checked_cell(self, name: str, value: Any) -> Cell:
+        try:
+            row, col = value
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"options[{name!r}] must be a (row, col) pair, got {value!r}"
+            ) from None
+        if not all(
+            isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (row, col)
+        ):
+            raise ValueError(f"options[{name!r}] must hold two integers, got {value!r}")
+        cell = Cell(int(row), int(col))
+        if not self.grid.contains(cell):
+            raise ValueError(
+                f"options[{name!r}] {tuple(cell)} is off the {self.grid_rows}x{self.grid_cols} grid"
+            )
+        return cell
+
+
+class WarehouseGridEnv(WarehouseEnvBase):
+    """A robot on a warehouse floor must reach a package: the pure-grid environment.
+
+    ## Description
+    The floor is a grid of ``grid_rows`` x ``grid_cols`` cells (4 x 5 by default);
+    cells are ``(row, col)`` with row 0 at the top. A robot starts in the top-left
+    cell and must drive to the cell of a package placed at random. This is the
+    "grid twin": it moves the robot with integer arithmetic, and the
+    physics-backed environment follows exactly the same rules.
+
+    ## Action Space
+    ``Discrete(4)``:
+
+    | Value | Name  | Move         |
+    |-------|-------|--------------|
+    | 0     | LEFT  | column - 1   |
+    | 1     | DOWN  | row + 1      |
+    | 2     | RIGHT | column + 1   |
+    | 3     | UP    | row - 1      |
+
+    The names are :class:`warehouse_phys.Action`. A move off the floor leaves
+    the robot where it is; it still counts as a step. Python ints, numpy
+    integers and 0-d integer arrays are accepted; anything else raises
+    ``TypeError``, an integer outside 0..3 raises ``ValueError``, and the
+    environment is unchanged by either.
+
+    ## Observation Space
+    ``MultiDiscrete([R, C, R, C])`` with dtype ``int64``: a fresh array
+    ``[robot_row, robot_col, target_row, target_col]`` every time, so
+    ``q[tuple(obs)]`` indexes a Q-table of shape ``(R, C, R, C, 4)`` directly.
+
+    ## Starting State
+    The robot stands on (0, 0). The target is drawn uniformly from rows 1..R-1
+    and columns 1..C-1 (never row 0 or column 0, so never on the start) with
+    ``self.np_random``, seeded by ``reset(seed=...)``.
+
+    ``reset(options=...)`` may override both: ``{"target": (r, c)}`` places the
+    package on any allowed cell without a random draw, ``{"start": (r, c)}``
+    puts the robot on any other floor cell. Evaluations use the first to try
+    every target in turn.
+
+    ## Rewards
+    1.0 on the step that puts the robot on the target, 0.0 on every other step.
+
+    ## Episode End
+    - Termination: the robot stands on the target.
+    - Truncation: the registered time limit, 200 steps by default. A uniformly
+      random walk on the default 4 x 5 floor needs 45 steps on average and ends
+      within 200 steps in 98.6 % of episodes. Bigger floors need longer:
+      ``gym.make("warehouse-robot-v0", grid_rows=8, grid_cols=8, max_episode_steps=1000)``.
+
+    Stepping on after termination is allowed and follows the same rules, as in
+    Gymnasium's toy-text environments; call ``reset()`` to start a new episode.
+
+    ``info`` holds ``"optimal_steps"``: the fewest actions from the robot's
+    cell to the target (the Manhattan distance on an empty floor).
+
+    ## Arguments
+    - ``grid_rows`` (int, default 4), ``grid_cols`` (int, default 5): the floor's
+      size; each must be at least 2, or ``ValueError`` says why.
+    - ``render_mode`` (``None``, ``"human"``, ``"rgb_array"`` or ``"ansi"``):
+      ``"rgb_array"`` returns an ``(H, W, 3)`` uint8 frame and never needs a
+      display; ``"human"`` draws in a pygame window paced at
+      ``metadata["render_fps"]`` (closing it or pressing Escape stops the
+      drawing, never the process: see :attr:`user_closed_window`); ``"ansi"``
+      returns one text line per row, each cell as ``R``, ``T`` or ``_`` and a
+      space. Frames show a status line with the last action under the grid.
+    - ``cell_px`` (int, default 64): side of one cell in rendered frames, in pixels.
+
+    ```python
+    import gymnasium as gym
+    import warehouse_phys  # registers the environments
+
+    env = gym.make("warehouse-robot-v0", render_mode="ansi")
+    obs, info = env.reset(seed=0)
+    obs, reward, terminated, truncated, info = env.step(warehouse_phys.Action.DOWN)
+    ```
+    """
+
+    def _move_robot(self, action: Action) -> Cell:
+        return self.grid.move(self._robot, action)
+
+
+def _checked_action(action: object) -> Action:
+    """The :class:`Action` for ``action``, or a ``TypeError``/``ValueError`` naming it."""
+    is_integer = (isinstance(action, (int, np.integer)) and not isinstance(action, bool)) or (
+        isinstance(action, np.ndarray) and action.ndim == 0 and action.dtype.kind in "iu"
+    )
+    if not is_integer:
+        raise TypeError(
+            f"invalid action {action!r} of type {type(action).__name__}: "
+            f"expected an integer in 0..3 ({_ACTION_RANGE})"
+        )
+    value = int(action)
+    if not 0 <= value < len(_ACTIONS):
+        raise ValueError(
+            f"invalid action {action!r}: expected an integer in 0..3 ({_ACTION_RANGE})"
+        )
+    return _ACTIONS[value]

@@ -1,0 +1,275 @@
+"""Drawing the warehouse: one renderer for every environment of the package.
+
+The renderer knows nothing about episodes or physics. It draws a floor of
+``rows`` x ``cols`` tiles, the package on its cell, the robot at a *continuous*
+position in cell units and a status line under the grid. Positions are
+``(row, col)`` floats in which whole numbers are cell centres, so ``(0.5, 1.0)``
+is half-way between the centres of cells (0, 1) and (1, 1).
+
+pygame is imported only when a picture is first drawn: an environment made
+with ``render_mode=None`` (or ``"ansi"``) never loads it.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    import pygame
+
+SPRITE_NAMES = ("robot.png", "floor.png", "package.png")
+
+#: Where sprites are looked for, in order: package data inside an installed
+#: wheel, then the ``sprites/`` folder of a source checkout.
+SPRITE_DIRS: tuple[Path, ...] = (
+    Path(__file__).resolve().parent / "sprites",
+    Path(__file__).resolve().parent.parent / "sprites",
+)
+
+DEFAULT_CELL_PX = 64  # [px] side of one floor cell on screen
+MIN_CELL_PX = 16  # [px] below this the status font no longer fits a 2-column grid
+
+STATUS_BACKGROUND = (38, 42, 48)  # RGB
+STATUS_TEXT = (235, 235, 235)  # RGB
+
+
+def sprite_path(name: str) -> Path:
+    """The file of sprite ``name`` (for example ``"robot.png"``).
+
+    Raises:
+        FileNotFoundError: if no sprite folder holds the file; the message
+            lists the folders searched and how to regenerate the images.
+    """
+    for folder in SPRITE_DIRS:
+        candidate = folder / name
+        if candidate.is_file():
+            return candidate
+    searched = ", ".join(str(folder) for folder in SPRITE_DIRS)
+    raise FileNotFoundError(
+        f"sprite {name!r} not found (searched: {searched}); reinstall warehouse_phys, "
+        "or regenerate the images in a source checkout with `python sprites/make_sprites.py`"
+    )
+
+
+def ansi_frame(rows: int, cols: int, robot: tuple[int, int], target: tuple[int, int]) -> str:
+    """The console picture: one line per grid row, each cell as ``R``, ``T`` or ``_`` and a space.
+
+    The robot is drawn over the target when both share a cell.
+    """
+    lines = []
+    for r in range(rows):
+        cells = []
+        for c in range(cols):
+            if (r, c) == (robot[0], robot[1]):
+                cells.append("R ")
+            elif (r, c) == (target[0], target[1]):
+                cells.append("T ")
+            else:
+                cells.append("_ ")
+        lines.append("".join(cells) + "\n")
+    return "".join(lines)
+
+
+def import_pygame() -> ModuleType:
+    """Import pygame (the ``pygame-ce`` distribution) quietly, or say how to install it."""
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    try:
+        import pygame
+    except ImportError as exc:  # pragma: no cover - pygame-ce is a runtime dependency
+        raise ImportError(
+            "rendering needs pygame; install it with `pip install pygame-ce`"
+        ) from exc
+    return pygame
+
+
+class WarehouseRenderer:
+    """Draws warehouse frames and, in ``human`` mode, owns the window.
+
+    Args:
+        rows: Number of grid rows.
+        cols: Number of grid columns.
+        cell_px: Side of one cell on screen [px].
+        render_fps: Pace of :meth:`show` [frames/s].
+        title: Window caption.
+    """
+
+    def __init__(
+        self,
+        rows: int,
+        cols: int,
+        *,
+        cell_px: int = DEFAULT_CELL_PX,
+        render_fps: float = 4,
+        title: str = "warehouse_phys",
+    ) -> None:
+        if isinstance(cell_px, bool) or not isinstance(cell_px, (int, np.integer)):
+            raise TypeError(f"cell_px must be an integer, got {cell_px!r}")
+        if cell_px < MIN_CELL_PX:
+            raise ValueError(f"cell_px must be at least {MIN_CELL_PX}, got {cell_px}")
+        self.rows = rows
+        self.cols = cols
+        self.cell_px = int(cell_px)
+        self.render_fps = render_fps
+        self.title = title
+        self.status_px = max(20, self.cell_px * 3 // 8)  # [px] height of the status line
+        self.width = cols * self.cell_px
+        self.height = rows * self.cell_px + self.status_px
+        #: True once the user closed the window or pressed Escape: :meth:`show`
+        #: then draws nothing more, and the host process carries on.
+        self.closed_by_user = False
+
+        self._pg: Any = None
+        self._floor: pygame.Surface | None = None
+        self._robot: pygame.Surface | None = None
+        self._package: pygame.Surface | None = None
+        self._canvas: pygame.Surface | None = None
+        self._font: Any = None
+        self._status_cache: tuple[str, pygame.Surface] | None = None
+        self._window: pygame.Surface | None = None
+        self._clock: Any = None
+
+    # ------------------------------------------------------------------ drawing
+    def draw(
+        self,
+        robot: Sequence[float],
+        target: tuple[int, int],
+        status: str = "",
+        surface: pygame.Surface | None = None,
+    ) -> pygame.Surface:
+        """Draw one frame onto ``surface`` (an off-screen canvas by default) and return it.
+
+        Args:
+            robot: The robot's ``(row, col)`` position in cell units; whole
+                numbers are cell centres, fractions lie between cells.
+            target: The package's cell.
+            status: Text of the status line under the grid (``""`` for none).
+            surface: Where to draw; must be :attr:`width` x :attr:`height`.
+        """
+        pg = self._ensure_pygame()
+        if surface is None:
+            if self._canvas is None:
+                self._canvas = pg.Surface((self.width, self.height))
+            surface = self._canvas
+        px = self.cell_px
+        surface.blit(self._floor, (0, 0))
+        surface.blit(self._package, (target[1] * px, target[0] * px))
+        surface.blit(self._robot, (round(robot[1] * px), round(robot[0] * px)))
+        surface.fill(STATUS_BACKGROUND, (0, self.rows * px, self.width, self.status_px))
+        if status:
+            text = self._status_surface(status)
+            y = self.rows * px + (self.status_px - text.get_height()) // 2
+            surface.blit(text, (self._status_margin(), y))
+        return surface
+
+    def rgb_array(
+        self, robot: Sequence[float], target: tuple[int, int], status: str = ""
+    ) -> np.ndarray:
+        """One frame as a fresh ``(height, width, 3)`` uint8 array; needs no display."""
+        pg = self._ensure_pygame()
+        surface = self.draw(robot, target, status)
+        return np.ascontiguousarray(pg.surfarray.pixels3d(surface).transpose(1, 0, 2))
+
+    # ------------------------------------------------------------------- window
+    def show(
+        self,
+        robot: Sequence[float],
+        target: tuple[int, int],
+        status: str = "",
+        fps: float | None = None,
+    ) -> bool:
+        """Draw one frame in the window, paced at ``fps`` (default :attr:`render_fps`).
+
+        Opens the window on first use. Returns ``False``, drawing nothing, once
+        the user has closed the window or pressed Escape; it never exits the
+        process, so a notebook kernel survives.
+        """
+        if self.closed_by_user:
+            return False
+        pg = self._ensure_pygame()
+        if self._window is None:
+            pg.display.init()
+            pg.display.set_caption(self.title)
+            self._window = pg.display.set_mode((self.width, self.height))
+            self._clock = pg.time.Clock()
+        for event in pg.event.get():
+            if event.type == pg.QUIT or (event.type == pg.KEYDOWN and event.key == pg.K_ESCAPE):
+                self.closed_by_user = True
+                self.close()
+                return False
+        self.draw(robot, target, status, surface=self._window)
+        pg.display.flip()
+        self._clock.tick(self.render_fps if fps is None else fps)
+        return True
+
+    @property
+    def window_open(self) -> bool:
+        """Whether the ``human`` window is open."""
+        return self._window is not None
+
+    def close(self) -> None:
+        """Close the window (if any) and drop every pygame resource; safe to call twice."""
+        if self._window is not None:
+            self._pg.display.quit()
+        self._window = None
+        self._clock = None
+        self._canvas = None
+        self._floor = self._robot = self._package = None
+        self._font = None
+        self._status_cache = None
+
+    # ------------------------------------------------------------------ helpers
+    def _ensure_pygame(self) -> Any:
+        if self._pg is None:
+            self._pg = import_pygame()
+        pg = self._pg
+        if self._floor is None:
+            self._load_sprites()
+        if not pg.font.get_init():
+            # Another environment's close() may have shut the font module down.
+            pg.font.init()
+            self._font = None
+            self._status_cache = None
+        return pg
+
+    def _load_sprites(self) -> None:
+        pg = self._pg
+        px = self.cell_px
+
+        def load(name: str) -> pygame.Surface:
+            path = sprite_path(name)
+            try:
+                image = pg.image.load(str(path))
+            except pg.error as exc:
+                raise ValueError(f"sprite {path} could not be read: {exc}") from exc
+            return pg.transform.smoothscale(image, (px, px))
+
+        tile = load("floor.png")
+        floor = pg.Surface((self.cols * px, self.rows * px))
+        for r in range(self.rows):
+            for c in range(self.cols):
+                floor.blit(tile, (c * px, r * px))
+        self._floor = floor
+        self._robot = load("robot.png")
+        self._package = load("package.png")
+
+    def _status_surface(self, status: str) -> pygame.Surface:
+        if self._status_cache is not None and self._status_cache[0] == status:
+            return self._status_cache[1]
+        if self._font is None:
+            self._font = self._pg.font.Font(None, self.status_px)
+        text = self._font.render(status, True, STATUS_TEXT)
+        room = self.width - 2 * self._status_margin()
+        if text.get_width() > room:  # narrow grids: shrink the line rather than clip it
+            height = max(1, text.get_height() * room // text.get_width())
+            text = self._pg.transform.smoothscale(text, (room, height))
+        self._status_cache = (status, text)
+        return text
+
+    def _status_margin(self) -> int:
+        return max(4, self.cell_px // 8)  # [px] left and right of the status text
