@@ -331,6 +331,16 @@ def test_invalid_reset_options_are_refused(options, message):
         env.reset(options=options)
 
 
+def test_start_option_alone_draws_the_target_from_the_other_cells():
+    env = WarehouseGridEnv(grid_rows=3, grid_cols=3)
+    env.reset(seed=0)
+    targets = {tuple(env.reset(options={"start": (1, 1)})[0][2:].tolist()) for _ in range(300)}
+    assert targets == {(1, 2), (2, 1), (2, 2)}
+    obs, info = env.reset(options={"start": (2, 0)})
+    assert obs[:2].tolist() == [2, 0]
+    assert info["optimal_steps"] == abs(obs[2] - 2) + abs(obs[3] - 0)
+
+
 def test_stepping_after_termination_follows_the_same_rules():
     env = WarehouseGridEnv()
     env.reset(options={"start": (1, 2), "target": (1, 1)})

@@ -72,6 +72,23 @@ def test_sampled_target_is_always_an_allowed_cell(size, seed):
         assert 1 <= col < grid.cols
 
 
+@given(grid_and_cell(), st.integers(0, 2**32 - 1))
+def test_sampled_target_avoids_the_excluded_cell(grid_cell, seed):
+    grid, cell = grid_cell
+    if set(grid.target_cells) <= {cell}:
+        return  # a 2x2 grid whose only target cell is excluded: nothing to draw from
+    rng = np.random.default_rng(seed)
+    for _ in range(20):
+        assert grid.sample_target(rng, exclude=cell) != cell
+
+
+def test_excluding_the_default_start_leaves_the_draw_unchanged():
+    grid = WarehouseGrid(4, 5)
+    plain = [grid.sample_target(np.random.default_rng(3)) for _ in range(5)]
+    excluded = [grid.sample_target(np.random.default_rng(3), exclude=START_CELL) for _ in range(5)]
+    assert plain == excluded
+
+
 def _bfs_steps(grid, start, goal):
     """An independent oracle: breadth-first search over the grid's moves."""
     seen = {tuple(start): 0}

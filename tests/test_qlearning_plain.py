@@ -65,3 +65,47 @@ def test_untrained_table_does_not_reach_the_targets():
     """The evaluation above can fail: an all-zero table keeps pressing LEFT at the start."""
     q = np.zeros((4, 5, 4, 5, 4))
     assert greedy_steps(q, (1, 1)) == (None, 2)
+
+
+def test_tutorial_style_script_runs_unchanged():
+    """The tutorial's loop: global `random`, sampled and argmax actions, no truncation check."""
+    import random
+
+    random.seed(0)
+    env = gym.make("warehouse-robot-v0", render_mode=None)
+    env.action_space.seed(0)
+    q = np.zeros(
+        (
+            env.unwrapped.grid_rows,
+            env.unwrapped.grid_cols,
+            env.unwrapped.grid_rows,
+            env.unwrapped.grid_cols,
+            env.action_space.n,
+        )
+    )
+    learning_rate_a, discount_factor_g, epsilon, episodes = 0.9, 0.9, 1, 300
+    steps_per_episode = np.zeros(episodes)
+    for i in range(episodes):
+        state = env.reset(seed=i)[0]
+        terminated = False
+        step_count = 0
+        while not terminated:
+            if random.random() < epsilon:
+                action = env.action_space.sample()
+            else:
+                action = np.argmax(q[tuple(state)])
+            new_state, reward, terminated, _, _ = env.step(action)
+            q[(*tuple(state), action)] = q[(*tuple(state), action)] + learning_rate_a * (
+                reward
+                + discount_factor_g * np.max(q[tuple(new_state)])
+                - q[(*tuple(state), action)]
+            )
+            state = new_state
+            step_count += 1
+        steps_per_episode[i] = step_count
+        epsilon = max(epsilon - 1 / episodes, 0)
+    env.close()
+    # Greedy episodes at the end walk straight to the target.
+    last = steps_per_episode[-50:]
+    assert last.mean() < 6, last
+    assert np.count_nonzero(q) > 0

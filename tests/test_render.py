@@ -106,8 +106,11 @@ def test_cell_size_is_configurable():
     env = WarehouseGridEnv(render_mode="rgb_array", cell_px=32)
     env.reset(seed=0)
     assert env.render().shape[:2] == (4 * 32 + env._renderer.status_px, 5 * 32)
-    with pytest.raises(ValueError, match="cell_px must be at least 16"):
-        WarehouseGridEnv(render_mode="rgb_array", cell_px=8)
+    for mode in (None, "ansi", "rgb_array", "human"):
+        with pytest.raises(ValueError, match="cell_px must be at least 16"):
+            WarehouseGridEnv(render_mode=mode, cell_px=8)
+    with pytest.raises(TypeError, match="cell_px must be an integer"):
+        WarehouseGridEnv(cell_px=64.0)
 
 
 def test_rgb_array_never_opens_a_window():
@@ -178,6 +181,22 @@ def test_closing_the_window_stops_drawing_but_not_the_program(how):
     assert pygame.display.get_surface() is not None
     assert not env2.unwrapped.user_closed_window
     env2.close()
+    assert not pygame.display.get_init()
+
+
+def test_a_window_survives_another_environment_closing_the_display():
+    import pygame
+
+    first = gym.make(ENV_ID, render_mode="human")
+    first.reset(seed=0)
+    second = gym.make(ENV_ID, render_mode="human")
+    second.reset(seed=1)
+    second.close()  # shuts the shared pygame display down
+    assert not pygame.display.get_init()
+    first.step(Action.DOWN)  # redraws, reopening the window
+    assert pygame.display.get_surface() is not None
+    assert not first.unwrapped.user_closed_window
+    first.close()
     assert not pygame.display.get_init()
 
 

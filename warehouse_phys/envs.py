@@ -62,17 +62,13 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         self._robot: Cell | None = None
         self._target: Cell | None = None
         self._last_action: Action | None = None
-        # Built at once so that a bad cell_px fails here, but it loads no pygame until drawing.
-        self._renderer: WarehouseRenderer | None = (
-            WarehouseRenderer(
-                self.grid_rows,
-                self.grid_cols,
-                cell_px=cell_px,
-                render_fps=self.metadata["render_fps"],
-                title=f"warehouse_phys: {type(self).__name__}",
-            )
-            if render_mode in ("human", "rgb_array")
-            else None
+        # Built in every mode so that a bad cell_px fails here; it loads no pygame until drawing.
+        self._renderer = WarehouseRenderer(
+            self.grid_rows,
+            self.grid_cols,
+            cell_px=cell_px,
+            render_fps=self.metadata["render_fps"],
+            title=f"warehouse_phys: {type(self).__name__}",
         )
 
     def step(
@@ -103,13 +99,14 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
 
         ``options`` may hold ``"target"``, a cell from :attr:`WarehouseGrid.target_cells`
         to use instead of a random draw (no random number is drawn then), and
-        ``"start"``, any floor cell other than the target for the robot to start on.
+        ``"start"``, any floor cell other than the target for the robot to start on
+        (a random target is then drawn from the other allowed cells).
         """
         super().reset(seed=seed)
         start, target = self._parse_options(options)
         if target is None:
-            target = self.grid.sample_target(self.np_random)
-        if start == target:
+            target = self.grid.sample_target(self.np_random, exclude=start)
+        elif start == target:
             raise ValueError(f"options['start'] {tuple(start)} is the target's cell")
         self._robot, self._target = start, target
         self._last_action = None
@@ -136,7 +133,6 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
             raise ResetNeeded("call reset() before render()")
         if self.render_mode == "ansi":
             return ansi_frame(self.grid_rows, self.grid_cols, self._robot, self._target)
-        assert self._renderer is not None
         if self.render_mode == "rgb_array":
             return self._renderer.rgb_array(self._robot, self._target, self._status_text())
         self._renderer.show(self._robot, self._target, self._status_text())
@@ -144,13 +140,12 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
 
     def close(self) -> None:
         """Close the window, if any, and release pygame; safe to call more than once."""
-        if self._renderer is not None:
-            self._renderer.close()
+        self._renderer.close()
 
     @property
     def user_closed_window(self) -> bool:
         """Whether the user closed the ``human`` window or pressed Escape; drawing then stops."""
-        return self._renderer is not None and self._renderer.closed_by_user
+        return self._renderer.closed_by_user
 
     # ------------------------------------------------------------ for subclasses
     def _move_robot(self, action: Action) -> Cell:
@@ -249,8 +244,9 @@ class WarehouseGridEnv(WarehouseEnvBase):
 
     ``reset(options=...)`` may override both: ``{"target": (r, c)}`` places the
     package on any allowed cell without a random draw, ``{"start": (r, c)}``
-    puts the robot on any other floor cell. Evaluations use the first to try
-    every target in turn.
+    puts the robot on any other floor cell (a random target is then drawn
+    uniformly from the allowed cells other than the start). Evaluations use the
+    first to try every target in turn.
 
     ## Rewards
     1.0 on the step that puts the robot on the target, 0.0 on every other step.

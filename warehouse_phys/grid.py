@@ -74,14 +74,6 @@ class WarehouseGrid:
     def __repr__(self) -> str:
         return f"WarehouseGrid(rows={self.rows}, cols={self.cols})"
 
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, WarehouseGrid):
-            return NotImplemented
-        return (self.rows, self.cols) == (other.rows, other.cols)
-
-    def __hash__(self) -> int:
-        return hash((self.rows, self.cols))
-
     def contains(self, cell: tuple[int, int]) -> bool:
         """Whether ``cell`` lies on the floor."""
         row, col = cell
@@ -98,9 +90,18 @@ class WarehouseGrid:
             return Cell(row, col)
         return Cell(cell[0], cell[1])
 
-    def sample_target(self, rng: np.random.Generator) -> Cell:
-        """Draw the target uniformly from :attr:`target_cells` with one call to ``rng``."""
-        return self.target_cells[int(rng.integers(len(self.target_cells)))]
+    def sample_target(
+        self, rng: np.random.Generator, exclude: tuple[int, int] | None = None
+    ) -> Cell:
+        """Draw the target uniformly from :attr:`target_cells` with one call to ``rng``.
+
+        ``exclude`` (a robot's start cell, say) is left out of the draw; the
+        default start (0, 0) is never a target cell, so excluding it changes nothing.
+        """
+        cells = self.target_cells
+        if exclude is not None and exclude in cells:
+            cells = tuple(cell for cell in cells if cell != exclude)
+        return cells[int(rng.integers(len(cells)))]
 
     def optimal_steps(self, cell: tuple[int, int], target: tuple[int, int]) -> int:
         """The fewest actions that take the robot from ``cell`` to ``target``.

@@ -192,7 +192,8 @@ class WarehouseRenderer:
         if self.closed_by_user:
             return False
         pg = self._ensure_pygame()
-        if self._window is None:
+        if self._window is None or pg.display.get_surface() is not self._window:
+            # First frame, or another environment's close() shut the shared display down.
             pg.display.init()
             pg.display.set_caption(self.title)
             self._window = pg.display.set_mode((self.width, self.height))
@@ -214,7 +215,7 @@ class WarehouseRenderer:
 
     def close(self) -> None:
         """Close the window (if any) and drop every pygame resource; safe to call twice."""
-        if self._window is not None:
+        if self._window is not None and self._pg.display.get_surface() is self._window:
             self._pg.display.quit()
         self._window = None
         self._clock = None
