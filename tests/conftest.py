@@ -1,6 +1,10 @@
 """Test-wide settings: no window, no sound, no GUI backend, reproducible hypothesis runs."""
 
 import os
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
 
 # Set before anything imports pygame or matplotlib, and inherited by subprocesses.
 os.environ["SDL_VIDEODRIVER"] = "dummy"
@@ -8,9 +12,32 @@ os.environ["SDL_AUDIODRIVER"] = "dummy"
 os.environ["MPLBACKEND"] = "Agg"
 os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
 
+import pytest
 from hypothesis import settings
 
 # CI runs the same examples every time; locally hypothesis explores as usual.
 settings.register_profile("ci", derandomize=True, database=None, deadline=None)
 settings.register_profile("dev", deadline=None)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
+
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture
+def run_python() -> Callable[..., str]:
+    """Run a Python snippet in a fresh interpreter from the repository root; return its stdout.
+
+    A fresh process shows what a user's script sees: nothing imported yet,
+    nothing left over from other tests.
+    """
+
+    def run(script: str, **kwargs: object) -> str:
+        kwargs.setdefault("cwd", ROOT)
+        result = subprocess.run(
+            [sys.executable, "-c", script], capture_output=True, text=True, **kwargs
+        )
+        assert result.returncode == 0, result.stderr
+        return result.stdout
+
+    return run

@@ -1,8 +1,7 @@
 """The grid twin as Gymnasium users meet it: rules, spaces, seeding, checker, bad input."""
 
+import json
 import math
-import subprocess
-import sys
 import warnings
 
 import gymnasium as gym
@@ -142,18 +141,14 @@ def test_different_seeds_give_different_targets():
     assert rollout(WarehouseGridEnv(), seed=1) != rollout(WarehouseGridEnv(), seed=2)
 
 
-def test_trajectories_are_identical_across_processes():
+def test_trajectories_are_identical_across_processes(run_python):
     script = (
         "import gymnasium as gym, warehouse_phys, json\n"
         "from tests.test_envs import rollout\n"
         f"print(json.dumps(rollout(gym.make({ENV_ID!r}), seed=99)))\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, check=True
-    ).stdout
-    import json
-
-    assert json.loads(out) == json.loads(json.dumps(rollout(gym.make(ENV_ID), seed=99)))
+    here = rollout(gym.make(ENV_ID), seed=99)
+    assert json.loads(run_python(script)) == json.loads(json.dumps(here))
 
 
 def test_reset_with_target_option_draws_no_random_number():
@@ -235,17 +230,14 @@ def test_time_limit_can_be_changed_by_the_user():
     assert [env.step(Action.LEFT)[3] for _ in range(5)] == [False] * 4 + [True]
 
 
-def test_module_prefixed_id_works_without_importing_the_package():
+def test_module_prefixed_id_works_without_importing_the_package(run_python):
     script = (
         "import sys, gymnasium as gym\n"
         "assert 'warehouse_phys' not in sys.modules\n"
         "env = gym.make('warehouse_phys:warehouse-robot-v0')\n"
         "print(type(env.unwrapped).__name__, env.reset(seed=0)[0].tolist())\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, check=True
-    ).stdout
-    assert out.startswith("WarehouseGridEnv [0, 0, ")
+    assert run_python(script).startswith("WarehouseGridEnv [0, 0, ")
 
 
 def test_importing_twice_does_not_reregister():

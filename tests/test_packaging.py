@@ -1,5 +1,6 @@
 """The package as a user installs it: wheel contents, sprites outside a checkout, the CLI, lint."""
 
+import os
 import shutil
 import subprocess
 import sys
@@ -12,7 +13,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 @pytest.mark.slow
-def test_sprites_load_from_an_installed_wheel(tmp_path):
+def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
     source = tmp_path / "src"
     source.mkdir()
     for name in ("pyproject.toml", "README.md"):
@@ -47,27 +48,14 @@ def test_sprites_load_from_an_installed_wheel(tmp_path):
     )
     outside = tmp_path / "elsewhere"
     outside.mkdir()
-    out = subprocess.run(
-        [sys.executable, "-c", script],
-        cwd=outside,
-        env={**_environ(), "PYTHONPATH": str(site)},
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout.splitlines()
+    out = run_python(script, cwd=outside, env={**os.environ, "PYTHONPATH": str(site)}).splitlines()
     assert Path(out[0]).is_relative_to(site)
     assert out[1] == "(280, 320, 3)"
 
 
-def _environ():
-    import os
-
-    return {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-
-
 def test_train_command_says_it_is_not_available_and_fails():
     result = subprocess.run(
-        [sys.executable, "-m", "warehouse_phys.train"], capture_output=True, text=True
+        [sys.executable, "-m", "warehouse_phys.train"], cwd=ROOT, capture_output=True, text=True
     )
     assert result.returncode == 1
     assert "trainer is not available" in result.stderr

@@ -1,8 +1,5 @@
 """Rendering: rgb_array frames, the ansi picture, the human window and lazy pygame."""
 
-import subprocess
-import sys
-
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -217,7 +214,7 @@ def test_human_window_shows_the_same_picture_as_rgb_array():
     assert np.array_equal(frames["human"], frames["rgb_array"])
 
 
-def test_pygame_is_not_loaded_without_a_render_mode():
+def test_pygame_is_not_loaded_without_a_render_mode(run_python):
     script = (
         "import sys, gymnasium as gym, warehouse_phys\n"
         "for mode in (None, 'ansi'):\n"
@@ -228,10 +225,7 @@ def test_pygame_is_not_loaded_without_a_render_mode():
         "    env.close()\n"
         "print('pygame' in sys.modules)\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, check=True
-    ).stdout
-    assert out.strip() == "False"
+    assert run_python(script).strip() == "False"
 
 
 # --------------------------------------------------------------------- sprites

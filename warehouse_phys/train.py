@@ -10,7 +10,8 @@ import sys
 
 NOT_AVAILABLE = (
     "warehouse_phys.train: the Q-learning trainer is not available in this version yet. "
-    "The environments are: see README.md for how to use `warehouse-robot-v0` from Python."
+    'The environment is: `import warehouse_phys` then `gym.make("warehouse-robot-v0")` '
+    "(see README.md)."
 )
 
 
