@@ -323,6 +323,17 @@ def test_invalid_reset_options_are_refused(options, message):
         env.reset(options=options)
 
 
+def test_invalid_reset_options_change_nothing():
+    env = WarehouseGridEnv()
+    env.reset(seed=1)
+    env.step(Action.RIGHT)
+    rng_state = env.np_random.bit_generator.state
+    with pytest.raises(ValueError, match="unknown reset option"):
+        env.reset(seed=5, options={"goal": (1, 1)})
+    assert env.np_random.bit_generator.state == rng_state
+    assert env.step(Action.RIGHT)[0][:2].tolist() == [0, 2]
+
+
 def test_start_option_alone_draws_the_target_from_the_other_cells():
     env = WarehouseGridEnv(grid_rows=3, grid_cols=3)
     env.reset(seed=0)

@@ -197,6 +197,21 @@ def test_a_window_survives_another_environment_closing_the_display():
     assert not pygame.display.get_init()
 
 
+def test_rendering_survives_pygame_quit_called_elsewhere():
+    import pygame
+
+    env = gym.make(ENV_ID, render_mode="rgb_array")
+    env.reset(seed=0)
+    env.step(Action.DOWN)
+    before = env.render()
+    frozen_lake = gym.make("FrozenLake-v1", render_mode="rgb_array")
+    frozen_lake.reset(seed=0)
+    frozen_lake.render()
+    frozen_lake.close()  # calls pygame.quit(), shutting the font module down
+    assert not pygame.font.get_init()
+    assert np.array_equal(env.render(), before)
+
+
 def test_human_window_shows_the_same_picture_as_rgb_array():
     import pygame
 

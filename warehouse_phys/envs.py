@@ -102,12 +102,10 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         ``"start"``, any floor cell other than the target for the robot to start on
         (a random target is then drawn from the other allowed cells).
         """
+        start, target = self._parse_options(options)  # first, so bad options change nothing
         super().reset(seed=seed)
-        start, target = self._parse_options(options)
         if target is None:
             target = self.grid.sample_target(self.np_random, exclude=start)
-        elif start == target:
-            raise ValueError(f"options['start'] {tuple(start)} is the target's cell")
         self._robot, self._target = start, target
         self._last_action = None
         self._start_episode()
@@ -185,6 +183,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
                     f"options['target'] {tuple(target)} is not a cell the target may occupy "
                     f"(rows 1..{self.grid_rows - 1}, columns 1..{self.grid_cols - 1})"
                 )
+            if start == target:
+                raise ValueError(f"options['start'] {tuple(start)} is the target's cell")
         return start, target
 
     def _checked_cell(self, name: str, value: Any) -> Cell:

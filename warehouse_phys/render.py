@@ -208,11 +208,6 @@ class WarehouseRenderer:
         self._clock.tick(self.render_fps if fps is None else fps)
         return True
 
-    @property
-    def window_open(self) -> bool:
-        """Whether the ``human`` window is open."""
-        return self._window is not None
-
     def close(self) -> None:
         """Close the window (if any) and drop every pygame resource; safe to call twice."""
         if self._window is not None and self._pg.display.get_surface() is self._window:
@@ -232,7 +227,7 @@ class WarehouseRenderer:
         if self._floor is None:
             self._load_sprites()
         if not pg.font.get_init():
-            # Another environment's close() may have shut the font module down.
+            # A pygame.quit() elsewhere (Gymnasium's own envs call it in close()) shut fonts down.
             pg.font.init()
             self._font = None
             self._status_cache = None
