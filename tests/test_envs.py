@@ -1,4 +1,9 @@
-"""The grid twin as Gymnasium users meet it: rules, spaces, seeding, checker, bad input."""
+"""Both environments as Gymnasium users meet them: rules, spaces, seeding, checker, bad input.
+
+Every test that takes ``env_cls`` or ``env_id`` runs on the grid twin and on
+the physics-backed environment; tests of the physics alone are in
+``test_envs_physics.py``.
+"""
 
 import json
 import math
@@ -11,10 +16,24 @@ from gymnasium.error import ResetNeeded
 from gymnasium.utils.env_checker import check_env
 
 import warehouse_phys
-from warehouse_phys import Action, WarehouseGridEnv
+from warehouse_phys import Action, WarehouseGridEnv, WarehousePhysicsEnv
 
-ENV_ID = "warehouse-robot-v0"
+ENV_ID = warehouse_phys.GRID_ENV_ID
+ENV_CLASSES = {
+    warehouse_phys.GRID_ENV_ID: WarehouseGridEnv,
+    warehouse_phys.PHYSICS_ENV_ID: WarehousePhysicsEnv,
+}
 DELTAS = {0: (0, -1), 1: (1, 0), 2: (0, 1), 3: (-1, 0)}  # the rule, written out independently
+
+
+@pytest.fixture(params=list(ENV_CLASSES), ids=["grid", "phys"])
+def env_id(request: pytest.FixtureRequest) -> str:
+    return request.param
+
+
+@pytest.fixture(params=list(ENV_CLASSES.values()), ids=["grid", "phys"])
+def env_cls(request: pytest.FixtureRequest) -> type:
+    return request.param
 
 
 def rule_next(rows, cols, cell, action):
@@ -26,9 +45,9 @@ def rule_next(rows, cols, cell, action):
 # ----------------------------------------------------------------------- rules
 @pytest.mark.parametrize("rows", range(2, 7))
 @pytest.mark.parametrize("cols", range(2, 8))
-def test_every_state_and_action_follows_the_rule(rows, cols):
+def test_every_state_and_action_follows_the_rule(rows, cols, env_cls):
     """Exhaustive: every (robot, target) pair of the grid and every action."""
-    env = WarehouseGridEnv(grid_rows=rows, grid_cols=cols)
+    env = env_cls(grid_rows=rows, grid_cols=cols)
     targets = [(r, c) for r in range(1, rows) for c in range(1, cols)]
     cells = [(r, c) for r in range(rows) for c in range(cols)]
     for target in targets:
@@ -52,18 +71,18 @@ def test_every_state_and_action_follows_the_rule(rows, cols):
                 )
 
 
-def test_reset_puts_robot_on_start_and_target_in_allowed_cells():
-    env = WarehouseGridEnv()
+def test_reset_puts_robot_on_start_and_target_in_allowed_cells(env_cls):
+    env = env_cls()
     for seed in range(200):
         obs, info = env.reset(seed=seed)
         assert obs[:2].tolist() == [0, 0]
         assert 1 <= obs[2] <= 3
         assert 1 <= obs[3] <= 4
-        assert info == {"optimal_steps": int(obs[2] + obs[3])}
+        assert info["optimal_steps"] == int(obs[2] + obs[3])
 
 
-def test_reward_and_termination_on_reaching_the_target():
-    env = WarehouseGridEnv()
+def test_reward_and_termination_on_reaching_the_target(env_cls):
+    env = env_cls()
     env.reset(options={"target": (1, 1)})
     obs, reward, terminated, _, info = env.step(Action.RIGHT)
     assert (obs.tolist(), reward, terminated, info["optimal_steps"]) == (
@@ -77,8 +96,8 @@ def test_reward_and_termination_on_reaching_the_target():
     assert isinstance(reward, float)
 
 
-def test_move_off_the_floor_stays_and_counts_as_a_step():
-    env = gym.make(ENV_ID, max_episode_steps=3)
+def test_move_off_the_floor_stays_and_counts_as_a_step(env_id):
+    env = gym.make(env_id, max_episode_steps=3)
     env.reset(seed=0)
     for _ in range(2):
         obs, _, _, truncated, _ = env.step(Action.UP)
@@ -130,29 +149,29 @@ def rollout(env, seed, n_episodes=5, n_steps=30):
     return record
 
 
-def test_same_seed_gives_same_targets_and_trajectory():
-    assert rollout(gym.make(ENV_ID), seed=7) == rollout(gym.make(ENV_ID), seed=7)
+def test_same_seed_gives_same_targets_and_trajectory(env_id):
+    assert rollout(gym.make(env_id), seed=7) == rollout(gym.make(env_id), seed=7)
 
 
-def test_different_seeds_give_different_targets():
-    env = WarehouseGridEnv()
+def test_different_seeds_give_different_targets(env_cls):
+    env = env_cls()
     firsts = {tuple(env.reset(seed=seed)[0][2:]) for seed in range(40)}
     assert len(firsts) > 6
-    assert rollout(WarehouseGridEnv(), seed=1) != rollout(WarehouseGridEnv(), seed=2)
+    assert rollout(env_cls(), seed=1) != rollout(env_cls(), seed=2)
 
 
-def test_trajectories_are_identical_across_processes(run_python):
+def test_trajectories_are_identical_across_processes(run_python, env_id):
     script = (
         "import gymnasium as gym, warehouse_phys, json\n"
         "from tests.test_envs import rollout\n"
-        f"print(json.dumps(rollout(gym.make({ENV_ID!r}), seed=99)))\n"
+        f"print(json.dumps(rollout(gym.make({env_id!r}), seed=99)))\n"
     )
-    here = rollout(gym.make(ENV_ID), seed=99)
+    here = rollout(gym.make(env_id), seed=99)
     assert json.loads(run_python(script)) == json.loads(json.dumps(here))
 
 
-def test_reset_with_target_option_draws_no_random_number():
-    env = WarehouseGridEnv()
+def test_reset_with_target_option_draws_no_random_number(env_cls):
+    env = env_cls()
     env.reset(seed=5)
     state = env.np_random.bit_generator.state
     obs, _ = env.reset(options={"target": (2, 3)})
@@ -162,8 +181,8 @@ def test_reset_with_target_option_draws_no_random_number():
 
 # ---------------------------------------------------------- gymnasium contract
 @pytest.mark.parametrize("kwargs", [{}, {"grid_rows": 2, "grid_cols": 2}, {"grid_rows": 7}])
-def test_check_env_passes_with_warnings_as_errors(kwargs):
-    env = gym.make(ENV_ID, **kwargs)
+def test_check_env_passes_with_warnings_as_errors(kwargs, env_id):
+    env = gym.make(env_id, **kwargs)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_env(env.unwrapped)
@@ -171,16 +190,16 @@ def test_check_env_passes_with_warnings_as_errors(kwargs):
 
 
 @pytest.mark.parametrize("render_mode", [None, "rgb_array", "ansi", "human"])
-def test_check_env_passes_in_every_render_mode(render_mode):
-    env = gym.make(ENV_ID, render_mode=render_mode)
+def test_check_env_passes_in_every_render_mode(render_mode, env_id):
+    env = gym.make(env_id, render_mode=render_mode)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_env(env.unwrapped)
     env.close()
 
 
-def test_spaces_and_observation_type():
-    env = gym.make(ENV_ID, grid_rows=3, grid_cols=6)
+def test_spaces_and_observation_type(env_id):
+    env = gym.make(env_id, grid_rows=3, grid_cols=6)
     assert env.action_space == gym.spaces.Discrete(4)
     assert env.observation_space == gym.spaces.MultiDiscrete([3, 6, 3, 6])
     obs, _ = env.reset(seed=0)
@@ -191,8 +210,8 @@ def test_spaces_and_observation_type():
     assert q[tuple(obs)].shape == (4,)
 
 
-def test_observations_are_fresh_arrays():
-    env = WarehouseGridEnv()
+def test_observations_are_fresh_arrays(env_cls):
+    env = env_cls()
     first, _ = env.reset(seed=0)
     first_copy = first.copy()
     second, _, _, _, _ = env.step(Action.DOWN)
@@ -203,15 +222,15 @@ def test_observations_are_fresh_arrays():
     assert env.step(Action.UP)[0][2:].tolist() == first_copy[2:].tolist()
 
 
-def test_metadata_declares_render_modes_and_fps():
-    assert WarehouseGridEnv.metadata["render_modes"] == ["human", "rgb_array", "ansi"]
-    assert WarehouseGridEnv.metadata["render_fps"] > 0
+def test_metadata_declares_render_modes_and_fps(env_cls):
+    assert env_cls.metadata["render_modes"] == ["human", "rgb_array", "ansi"]
+    assert env_cls.metadata["render_fps"] > 0
 
 
-def test_registration_and_default_time_limit():
-    env = gym.make(ENV_ID)
+def test_registration_and_default_time_limit(env_id):
+    env = gym.make(env_id)
     assert env.spec.max_episode_steps == warehouse_phys.DEFAULT_MAX_EPISODE_STEPS == 200
-    assert isinstance(env.unwrapped, WarehouseGridEnv)
+    assert type(env.unwrapped) is ENV_CLASSES[env_id]
     assert (env.unwrapped.grid_rows, env.unwrapped.grid_cols) == (4, 5)
     env.reset(seed=0)
     truncated_at = None
@@ -224,20 +243,20 @@ def test_registration_and_default_time_limit():
     assert truncated_at == 200
 
 
-def test_time_limit_can_be_changed_by_the_user():
-    env = gym.make(ENV_ID, max_episode_steps=5)
+def test_time_limit_can_be_changed_by_the_user(env_id):
+    env = gym.make(env_id, max_episode_steps=5)
     env.reset(seed=0)
     assert [env.step(Action.LEFT)[3] for _ in range(5)] == [False] * 4 + [True]
 
 
-def test_module_prefixed_id_works_without_importing_the_package(run_python):
+def test_module_prefixed_id_works_without_importing_the_package(run_python, env_id):
     script = (
         "import sys, gymnasium as gym\n"
         "assert 'warehouse_phys' not in sys.modules\n"
-        "env = gym.make('warehouse_phys:warehouse-robot-v0')\n"
+        f"env = gym.make('warehouse_phys:{env_id}')\n"
         "print(type(env.unwrapped).__name__, env.reset(seed=0)[0].tolist())\n"
     )
-    assert run_python(script).startswith("WarehouseGridEnv [0, 0, ")
+    assert run_python(script).startswith(f"{ENV_CLASSES[env_id].__name__} [0, 0, ")
 
 
 def test_importing_twice_does_not_reregister():
@@ -246,7 +265,8 @@ def test_importing_twice_does_not_reregister():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         importlib.reload(warehouse_phys)
-    assert gym.make(ENV_ID).spec.id == ENV_ID
+    for env_id in ENV_CLASSES:
+        assert gym.make(env_id).spec.id == env_id
 
 
 # ------------------------------------------------------------------ bad input
@@ -265,8 +285,8 @@ def test_importing_twice_does_not_reregister():
         (np.array(1.0), TypeError),
     ],
 )
-def test_invalid_action_names_it_and_the_range_and_changes_nothing(action, error):
-    env = gym.make(ENV_ID)
+def test_invalid_action_names_it_and_the_range_and_changes_nothing(action, error, env_id):
+    env = gym.make(env_id)
     obs, _ = env.reset(seed=3)
     with pytest.raises(error, match=r"invalid action .*0\.\.3 \(LEFT=0, DOWN=1, RIGHT=2, UP=3\)"):
         env.step(action)
@@ -280,28 +300,28 @@ def test_invalid_action_names_it_and_the_range_and_changes_nothing(action, error
 @pytest.mark.parametrize(
     "action", [2, np.int64(2), np.int8(2), np.uint8(2), np.array(2), Action.RIGHT]
 )
-def test_integer_actions_of_every_kind_are_accepted(action):
-    env = WarehouseGridEnv()
+def test_integer_actions_of_every_kind_are_accepted(action, env_cls):
+    env = env_cls()
     env.reset(options={"target": (2, 2)})
     assert env.step(action)[0][:2].tolist() == [0, 1]
 
 
-def test_stepping_before_reset_raises():
+def test_stepping_before_reset_raises(env_id):
     with pytest.raises(ResetNeeded, match="reset"):
-        WarehouseGridEnv().step(0)
+        ENV_CLASSES[env_id]().step(0)
     with pytest.raises(ResetNeeded):
-        gym.make(ENV_ID).step(0)
+        gym.make(env_id).step(0)
 
 
 @pytest.mark.parametrize(("rows", "cols"), [(1, 5), (4, 1), (0, 3)])
-def test_invalid_grid_size_through_make_is_refused(rows, cols):
+def test_invalid_grid_size_through_make_is_refused(rows, cols, env_id):
     with pytest.raises(ValueError, match="at least 2"):
-        gym.make(ENV_ID, grid_rows=rows, grid_cols=cols)
+        gym.make(env_id, grid_rows=rows, grid_cols=cols)
 
 
-def test_unknown_render_mode_is_refused():
+def test_unknown_render_mode_is_refused(env_cls):
     with pytest.raises(ValueError, match="render_mode must be None or one of"):
-        WarehouseGridEnv(render_mode="window")
+        env_cls(render_mode="window")
 
 
 @pytest.mark.parametrize(
@@ -317,14 +337,14 @@ def test_unknown_render_mode_is_refused():
         ({"goal": (1, 1)}, "unknown reset option"),
     ],
 )
-def test_invalid_reset_options_are_refused(options, message):
-    env = WarehouseGridEnv()
+def test_invalid_reset_options_are_refused(options, message, env_cls):
+    env = env_cls()
     with pytest.raises(ValueError, match=message):
         env.reset(options=options)
 
 
-def test_invalid_reset_options_change_nothing():
-    env = WarehouseGridEnv()
+def test_invalid_reset_options_change_nothing(env_cls):
+    env = env_cls()
     env.reset(seed=1)
     env.step(Action.RIGHT)
     rng_state = env.np_random.bit_generator.state
@@ -334,8 +354,8 @@ def test_invalid_reset_options_change_nothing():
     assert env.step(Action.RIGHT)[0][:2].tolist() == [0, 2]
 
 
-def test_start_option_alone_draws_the_target_from_the_other_cells():
-    env = WarehouseGridEnv(grid_rows=3, grid_cols=3)
+def test_start_option_alone_draws_the_target_from_the_other_cells(env_cls):
+    env = env_cls(grid_rows=3, grid_cols=3)
     env.reset(seed=0)
     targets = {tuple(env.reset(options={"start": (1, 1)})[0][2:].tolist()) for _ in range(300)}
     assert targets == {(1, 2), (2, 1), (2, 2)}
@@ -344,8 +364,8 @@ def test_start_option_alone_draws_the_target_from_the_other_cells():
     assert info["optimal_steps"] == abs(obs[2] - 2) + abs(obs[3] - 0)
 
 
-def test_stepping_after_termination_follows_the_same_rules():
-    env = WarehouseGridEnv()
+def test_stepping_after_termination_follows_the_same_rules(env_cls):
+    env = env_cls()
     env.reset(options={"start": (1, 2), "target": (1, 1)})
     assert env.step(Action.LEFT)[1:3] == (1.0, True)
     obs, reward, terminated, _, _ = env.step(Action.DOWN)

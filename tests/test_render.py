@@ -4,7 +4,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from warehouse_phys import Action, WarehouseGridEnv
+from warehouse_phys import PHYSICS_ENV_ID, Action, WarehouseGridEnv
 from warehouse_phys import render as render_module
 from warehouse_phys.render import WarehouseRenderer, ansi_frame
 
@@ -152,11 +152,12 @@ def post(event_type, **fields):
     pygame.event.post(pygame.event.Event(event_type, **fields))
 
 
+@pytest.mark.parametrize("env_id", [ENV_ID, PHYSICS_ENV_ID])
 @pytest.mark.parametrize("how", ["quit", "escape"])
-def test_closing_the_window_stops_drawing_but_not_the_program(how):
+def test_closing_the_window_stops_drawing_but_not_the_program(how, env_id):
     import pygame
 
-    env = gym.make(ENV_ID, render_mode="human")
+    env = gym.make(env_id, render_mode="human")
     env.reset(seed=0)
     status_px = env.unwrapped._renderer.status_px
     assert pygame.display.get_surface().get_size() == (5 * CELL, 4 * CELL + status_px)
@@ -173,7 +174,7 @@ def test_closing_the_window_stops_drawing_but_not_the_program(how):
     env.close()
     env.close()
     # A new environment can open a window afterwards.
-    env2 = gym.make(ENV_ID, render_mode="human")
+    env2 = gym.make(env_id, render_mode="human")
     env2.reset(seed=0)
     assert pygame.display.get_surface() is not None
     assert not env2.unwrapped.user_closed_window
@@ -212,12 +213,13 @@ def test_rendering_survives_pygame_quit_called_elsewhere():
     assert np.array_equal(env.render(), before)
 
 
-def test_human_window_shows_the_same_picture_as_rgb_array():
+@pytest.mark.parametrize("env_id", [ENV_ID, PHYSICS_ENV_ID])
+def test_human_window_shows_the_same_picture_as_rgb_array(env_id):
     import pygame
 
     frames = {}
     for mode in ("human", "rgb_array"):
-        env = gym.make(ENV_ID, render_mode=mode)
+        env = gym.make(env_id, render_mode=mode)
         env.reset(options={"target": (2, 2)})
         env.step(Action.RIGHT)
         if mode == "human":

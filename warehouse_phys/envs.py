@@ -3,12 +3,14 @@
 :class:`WarehouseEnvBase` holds everything an episode needs (spaces, argument
 checks, reset options, the reward rule, observations, rendering). A concrete
 environment only says how the robot gets from one cell to the next by
-overriding :meth:`WarehouseEnvBase._move_robot`; the grid twin applies the rule
-of :class:`~warehouse_phys.grid.WarehouseGrid` directly.
+overriding :meth:`WarehouseEnvBase._move_robot`: the grid twin applies the rule
+of :class:`~warehouse_phys.grid.WarehouseGrid` directly, the physics-backed
+environment drives a pymunk body there and reads the cell back from it.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -17,12 +19,14 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from warehouse_phys.grid import START_CELL, Action, Cell, WarehouseGrid
+from warehouse_phys.physics import PhysicsConfig, PhysicsWorld, check_controller
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
 
 #: The actions in value order, so that ``_ACTIONS[i]`` is ``Action(i)`` without an enum lookup.
 _ACTIONS: tuple[Action, ...] = tuple(Action)
 _ACTION_RANGE = ", ".join(f"{a.name}={a.value}" for a in Action)
 _RESET_OPTIONS = ("start", "target")
+_PHYSICS_DEFAULTS = PhysicsConfig()
 
 
 class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
@@ -89,6 +93,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         self._last_action = move
         reward, terminated = self.grid.outcome(self._robot, self._target)
         if self.render_mode == "human":
+            self._show_move()
             self.render()
         return self._get_obs(), reward, terminated, False, self._get_info()
 
@@ -152,6 +157,9 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
 
     def _start_episode(self) -> None:
         """Called at the end of :meth:`reset`, once the robot and target cells are set."""
+
+    def _show_move(self) -> None:
+        """In ``human`` mode, called after each move and before its final frame is drawn."""
 
     # ------------------------------------------------------------------ helpers
     def _get_obs(self) -> np.ndarray:
@@ -288,6 +296,208 @@ class WarehouseGridEnv(WarehouseEnvBase):
 
     def _move_robot(self, action: Action) -> Cell:
         return self.grid.move(self._robot, action)
+
+
+class WarehousePhysicsEnv(WarehouseEnvBase):
+    """A robot on a warehouse floor must reach a package: the physics-backed environment.
+
+    ## Description
+    The same task and the same rules as :class:`WarehouseGridEnv`, on a floor
+    simulated with pymunk. The robot is a round rigid body with mass and moment;
+    the floor is bounded by static walls. Each action hands the next cell to a
+    controller (a kinematic control body and a pivot joint with capped force
+    and speed) that drives the body there through the physics in a fixed number
+    of steps of a constant ``dt``. When the move ends, the cell is read from
+    where the body actually is (the nearest cell centre), and the body is
+    snapped onto that centre with zero velocity; it is never teleported during
+    a move. The tests prove that this environment and the grid twin give the
+    same observations, rewards, terminations and ``info`` for the same seed and
+    actions.
+
+    A move towards a wall is driven too: the robot bumps into the wall, which
+    stops it, and drives back to the centre of its own cell in the last
+    ``settle_time`` of the move (see :mod:`warehouse_phys.physics`). Like a
+    move off the floor in the grid twin, it leaves the robot where it was.
+
+    ## Action Space
+    ``Discrete(4)``: LEFT=0, DOWN=1, RIGHT=2, UP=3, as in :class:`WarehouseGridEnv`.
+
+    ## Observation Space
+    ``MultiDiscrete([R, C, R, C])`` with dtype ``int64``:
+    ``[robot_row, robot_col, target_row, target_col]``, the robot's cell read
+    from the body's position.
+
+    ## Starting State
+    As in :class:`WarehouseGridEnv`, with the body at rest on the start cell's
+    centre. The target is drawn from ``self.np_random`` exactly as there, so the
+    same seed places it on the same cell in both environments. Every reset
+    builds a fresh pymunk space, so no contact or solver state carries over and
+    a seed replays bit for bit. ``reset(options=...)`` takes the same
+    ``"target"`` and ``"start"`` options.
+
+    ## Rewards
+    1.0 on the step that puts the robot on the target, 0.0 on every other step.
+
+    ## Episode End
+    As in :class:`WarehouseGridEnv`: termination on the target, truncation at
+    the registered time limit (200 steps).
+
+    ``info`` holds ``"optimal_steps"`` (as in the grid twin) and
+    ``"snap_error"``: the distance between the body and the centre of its cell
+    just before the snap, in cells (0.0 after a reset). It is always below
+    ``SNAP_ERROR_BOUND`` (0.02 of a cell); the defaults keep it under 0.005.
+
+    ## Arguments
+    - ``grid_rows``, ``grid_cols``, ``render_mode``, ``cell_px``: as in
+      :class:`WarehouseGridEnv`. ``"human"`` plays every move as smooth motion
+      in real time (one frame per physics step at 60 fps with the defaults),
+      then shows the snapped frame. ``"rgb_array"`` returns the frame after the
+      move; :meth:`move_frames` gives the frames during it.
+    - Physical parameters, keyword-only (:class:`~warehouse_phys.physics.PhysicsConfig`
+      documents each): ``cell_size`` (1.0 m), ``robot_radius`` (0.3 m),
+      ``robot_mass`` (20 kg), ``floor_damping`` (1.0 1/s), ``max_speed``
+      (6 m/s) and ``max_force`` (3000 N) of the controller, its ``gain``
+      (60 1/s), the physics step ``dt`` (1/60 s), ``move_duration`` (0.25 s:
+      15 steps per action) and ``settle_time`` (0.1 s). Nonsense (a
+      non-positive size, a robot wider than a cell, ``dt`` longer than a move,
+      a speed that could cross a wall in one step) raises ``ValueError``, and
+      so does a controller that cannot finish a move within the snap bound,
+      which is tried once when the environment is built.
+    - ``record_path`` (bool or ``None``): whether each move records the body's
+      positions for :attr:`last_move_path` and :meth:`move_frames`. ``None``
+      (the default) records when rendering to ``"human"`` or ``"rgb_array"``
+      and not otherwise, since recording costs about a third of a move's time.
+
+    Through ``gym.make`` the extra attributes are reached with
+    ``env.unwrapped``:
+
+    ```python
+    import gymnasium as gym
+    import warehouse_phys  # registers the environments
+
+    env = gym.make("warehouse-robot-phys-v0", render_mode="rgb_array")
+    obs, info = env.reset(seed=0)
+    obs, reward, terminated, truncated, info = env.step(warehouse_phys.Action.RIGHT)
+    path = env.unwrapped.last_move_path  # (15, 2) positions in cells
+    frames = env.unwrapped.move_frames()  # 15 frames of the move
+    ```
+    """
+
+    metadata: dict[str, Any] = {  # noqa: RUF012 - Gymnasium reads and copies this class attribute
+        "render_modes": ["human", "rgb_array", "ansi"],
+        # One frame per physics step with the default dt: a move plays in real time.
+        "render_fps": 60,
+    }
+
+    def __init__(
+        self,
+        grid_rows: int = 4,
+        grid_cols: int = 5,
+        render_mode: str | None = None,
+        cell_px: int = DEFAULT_CELL_PX,
+        *,
+        cell_size: float = _PHYSICS_DEFAULTS.cell_size,
+        robot_radius: float = _PHYSICS_DEFAULTS.robot_radius,
+        robot_mass: float = _PHYSICS_DEFAULTS.robot_mass,
+        floor_damping: float = _PHYSICS_DEFAULTS.floor_damping,
+        max_speed: float = _PHYSICS_DEFAULTS.max_speed,
+        max_force: float = _PHYSICS_DEFAULTS.max_force,
+        gain: float = _PHYSICS_DEFAULTS.gain,
+        dt: float = _PHYSICS_DEFAULTS.dt,
+        move_duration: float = _PHYSICS_DEFAULTS.move_duration,
+        settle_time: float = _PHYSICS_DEFAULTS.settle_time,
+        record_path: bool | None = None,
+    ) -> None:
+        super().__init__(grid_rows, grid_cols, render_mode, cell_px)
+        #: The physical parameters; a new value takes effect at the next reset.
+        self.physics = PhysicsConfig(
+            cell_size=cell_size,
+            robot_radius=robot_radius,
+            robot_mass=robot_mass,
+            floor_damping=floor_damping,
+            max_speed=max_speed,
+            max_force=max_force,
+            gain=gain,
+            dt=dt,
+            move_duration=move_duration,
+            settle_time=settle_time,
+        )
+        check_controller(self.physics)
+        if record_path is None:
+            record_path = render_mode in ("human", "rgb_array")
+        elif not isinstance(record_path, bool):
+            raise TypeError(f"record_path must be a bool or None, got {record_path!r}")
+        if render_mode == "human" and not record_path:
+            raise ValueError("render_mode='human' plays the recorded path: record_path must be on")
+        self.record_path = record_path
+        #: The pymunk world of the current episode, rebuilt by every reset.
+        self.world: PhysicsWorld | None = None
+        self._snap_error = 0.0
+
+    @property
+    def last_move_path(self) -> np.ndarray:
+        """The body's positions after each physics step of the last move, before the snap.
+
+        A fresh float64 array of shape ``(steps_per_move, 2)`` of ``(row, col)``
+        in cell units (cell centres are whole numbers); empty after a reset.
+
+        Raises:
+            gymnasium.error.ResetNeeded: before the first reset.
+            RuntimeError: if the environment does not record paths (see ``record_path``).
+        """
+        if self.world is None:
+            raise ResetNeeded("call reset() before reading last_move_path")
+        if not self.record_path:
+            raise RuntimeError(
+                "this environment does not record paths: create it with record_path=True "
+                "or with render_mode='rgb_array'"
+            )
+        return self.world.last_path
+
+    def move_frames(self) -> list[np.ndarray]:
+        """The frames of the last move, one per physics step, as ``(H, W, 3)`` uint8 arrays.
+
+        They show the body at each position of :attr:`last_move_path`, the last
+        one just before the snap; :meth:`render` in ``"rgb_array"`` mode gives
+        the snapped frame after them. Played at ``1 / dt`` frames per second
+        (``metadata["render_fps"]`` with the defaults) they show the move in
+        real time. Needs no display, whatever the render mode.
+        """
+        status = self._status_text()
+        return [
+            self._renderer.rgb_array(position, self._target, status)
+            for position in self.last_move_path
+        ]
+
+    # ------------------------------------------------------------ hooks
+    def _move_robot(self, action: Action) -> Cell:
+        result = self.world.move(action)
+        self._snap_error = result.snap_error
+        return result.cell
+
+    def _start_episode(self) -> None:
+        self.world = PhysicsWorld(
+            self.grid, self.physics, self._robot, record_path=self.record_path
+        )
+        self._snap_error = 0.0
+
+    def _show_move(self) -> None:
+        # Real time: move_duration * render_fps frames, each the body's position
+        # at the end of its frame interval; the last one is the snapped frame
+        # that render() draws next.
+        path = self.world.last_path
+        steps = len(path)
+        frames = max(1, round(self.physics.move_duration * self.metadata["render_fps"]))
+        status = self._status_text()
+        for frame in range(1, frames):
+            step = math.ceil(frame * steps / frames) - 1
+            if not self._renderer.show(path[step], self._target, status):
+                return
+
+    def _get_info(self) -> dict[str, Any]:
+        info = super()._get_info()
+        info["snap_error"] = self._snap_error
+        return info
 
 
 def _checked_action(action: object) -> Action:

@@ -1,0 +1,256 @@
+"""The pymunk world and its controller on their own, without an environment."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pymunk
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from warehouse_phys.grid import Action, WarehouseGrid
+from warehouse_phys.physics import (
+    SNAP_ERROR_BOUND,
+    PhysicsConfig,
+    PhysicsWorld,
+    check_controller,
+)
+
+DEFAULTS = PhysicsConfig()
+GRID = WarehouseGrid(3, 3)
+CENTRE = (1, 1)
+NEIGHBOURS = {Action.LEFT: (1, 0), Action.DOWN: (2, 1), Action.RIGHT: (1, 2), Action.UP: (0, 1)}
+# From the middle of the top-left cell, the two actions that run into a wall.
+INTO_WALL_FROM_CORNER = (Action.LEFT, Action.UP)
+
+
+def world(config=DEFAULTS, start=CENTRE, grid=GRID, **kwargs):
+    return PhysicsWorld(grid, config, start, **kwargs)
+
+
+def body_cell_units(w):
+    x, y = w.robot.position
+    size = w.config.cell_size
+    return y / size - 0.5, x / size - 0.5
+
+
+# ---------------------------------------------------------------------- config
+def test_default_clocks_give_fifteen_steps_a_move():
+    assert DEFAULTS.steps_per_move == 15
+    assert DEFAULTS.settle_steps == 6
+    assert DEFAULTS.dt == pytest.approx(1 / 60)
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"cell_size": 0.0}, "cell_size must be positive"),
+        ({"robot_mass": -1.0}, "robot_mass must be positive"),
+        ({"max_force": math.nan}, "max_force must be positive and finite"),
+        ({"gain": math.inf}, "gain must be positive and finite"),
+        ({"robot_radius": 0.5}, "robot_radius 0.5 m must be less than half the cell_size"),
+        ({"robot_radius": 0.7}, "the robot must fit in a cell"),
+        ({"dt": 0.5}, "dt 0.5 s is longer than move_duration"),
+        ({"dt": 0.07}, "not a whole number of dt=0.07 s steps"),
+        ({"settle_time": 0.25}, "settle_time 0.25 s must be at least one step"),
+        ({"settle_time": 0.001}, "settle_time 0.001 s must be at least one step"),
+        ({"max_speed": 20.0}, "could pass through a wall"),
+    ],
+)
+def test_nonsense_configuration_is_refused_with_the_reason(changes, message):
+    with pytest.raises(ValueError, match=message):
+        dataclasses.replace(DEFAULTS, **changes)
+
+
+@pytest.mark.parametrize("value", ["1.0", None, True])
+def test_non_numbers_are_refused(value):
+    with pytest.raises(TypeError, match="robot_mass must be a real number"):
+        PhysicsConfig(robot_mass=value)
+
+
+def test_defaults_pass_the_controller_check():
+    check_controller(DEFAULTS)
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"max_force": 20.0}, r"a free move from \(0, 0\) ends on \(0, 0\), not \(0, 1\)"),
+        (
+            {"gain": 10.0},
+            "a free move ends 0.128 cells from the centre, not within the bound of 0.02",
+        ),
+        ({"settle_time": 1 / 60}, "a move into a wall ends .* cells from the centre"),
+    ],
+)
+def test_controller_check_refuses_a_controller_that_cannot_finish_a_move(changes, message):
+    config = dataclasses.replace(DEFAULTS, **changes)
+    with pytest.raises(ValueError, match=message):
+        check_controller(config)
+
+
+# ------------------------------------------------------------------ controller
+@pytest.mark.parametrize("action", list(Action))
+def test_one_move_from_rest_ends_within_the_bound_of_the_next_centre(action):
+    w = world(record_path=True)
+    result = w.move(action)
+    assert result.cell == NEIGHBOURS[action]
+    assert 0 <= result.snap_error < SNAP_ERROR_BOUND
+    # The pre-snap position really was that close: the last recorded point.
+    last = w.last_path[-1]
+    assert math.dist(last, NEIGHBOURS[action]) == pytest.approx(result.snap_error, abs=1e-12)
+    # ... and after the snap the body rests exactly on the centre.
+    assert body_cell_units(w) == NEIGHBOURS[action]
+    assert tuple(w.robot.velocity) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("action", INTO_WALL_FROM_CORNER)
+def test_a_move_into_a_wall_bumps_it_and_returns_to_its_own_centre(action):
+    w = world(start=(0, 0), record_path=True)
+    result = w.move(action)
+    assert result.cell == (0, 0)
+    assert result.snap_error < SNAP_ERROR_BOUND
+    path = w.last_path
+    along = path[:, 1] if action == Action.LEFT else path[:, 0]  # towards the wall: negative
+    gap = 0.5 - DEFAULTS.robot_radius / DEFAULTS.cell_size  # centre to wall, less the radius
+    # It visibly drives towards the wall until the wall stops it...
+    assert along.min() < -0.8 * gap
+    # ... and the wall stops it: at most one step's travel of overlap, never through.
+    overlap_allowed = DEFAULTS.max_speed * DEFAULTS.dt / DEFAULTS.cell_size
+    assert along.min() > -(gap + overlap_allowed)
+    # The other coordinate never moves: a straight bump, no slide along the wall.
+    across = path[:, 0] if action == Action.LEFT else path[:, 1]
+    assert np.abs(across).max() < 1e-9
+
+
+def controller_trace(w, action):
+    """Run a move while recording, after each physics step, speed and joint force."""
+    speeds, forces = [], []
+    step = w._step  # the move's own stepping function, wrapped to look inside
+
+    def recording_step(dt):
+        step(dt)
+        speeds.append(abs(w.robot.velocity))
+        forces.append(w.joint.impulse / dt)
+
+    w._step = recording_step
+    w.move(action)
+    return np.array(speeds), np.array(forces)
+
+
+@pytest.mark.parametrize(("start", "action"), [(CENTRE, Action.RIGHT), ((0, 0), Action.UP)])
+def test_speed_and_force_stay_within_their_limits(start, action):
+    w = world(start=start)
+    speeds, forces = controller_trace(w, action)
+    assert len(speeds) == DEFAULTS.steps_per_move
+    assert speeds.max() <= DEFAULTS.max_speed * (1 + 1e-9)
+    assert forces.max() <= DEFAULTS.max_force * (1 + 1e-9)
+    # The limits are reached, so they are what shapes the motion.
+    assert speeds.max() > 0.9 * DEFAULTS.max_speed
+    assert forces.max() > 0.9 * DEFAULTS.max_force
+
+
+def test_a_controller_too_weak_to_arrive_leaves_the_robot_short():
+    weak = dataclasses.replace(DEFAULTS, max_force=20.0)  # 1 m/s^2 on 20 kg: 3 cm in 0.25 s
+    w = world(weak, record_path=True)
+    result = w.move(Action.RIGHT)
+    assert result.cell == CENTRE  # read from the body, which never got there
+    assert w.last_path[:, 1].max() - CENTRE[1] < 0.1
+
+
+def test_moves_chain_from_snapped_rest_states():
+    w = world(start=(0, 0))
+    cells = [w.move(action).cell for action in [Action.RIGHT, Action.RIGHT, Action.DOWN] * 2]
+    assert cells == [(0, 1), (0, 2), (1, 2), (1, 2), (1, 2), (2, 2)]
+
+
+# --------------------------------------------------------------- determinism
+def paths(w, actions):
+    out = []
+    for action in actions:
+        w.move(action)
+        out.append(w.last_path)
+    return np.concatenate(out)
+
+
+@given(
+    actions=st.lists(st.sampled_from(list(Action)), min_size=1, max_size=30),
+    start=st.tuples(st.integers(0, 2), st.integers(0, 2)),
+)
+def test_fresh_worlds_replay_bit_for_bit(actions, start):
+    first = paths(world(start=start, record_path=True), actions)
+    second = paths(world(start=start, record_path=True), actions)
+    assert first.tobytes() == second.tobytes()
+
+
+def test_fast_stepping_equals_pymunks_space_step():
+    actions = np.random.default_rng(3).integers(4, size=60).tolist()
+    fast = world(start=(0, 0), record_path=True)
+    plain = world(start=(0, 0), record_path=True)
+    plain._step = plain.space.step  # the public, fully checked stepping call
+    assert paths(fast, actions).tobytes() == paths(plain, actions).tobytes()
+
+
+# ----------------------------------------------------------------- recording
+def test_path_has_one_point_per_physics_step_in_cell_units():
+    w = world(record_path=True)
+    assert w.last_path.shape == (0, 2)
+    w.move(Action.DOWN)
+    path = w.last_path
+    assert path.shape == (DEFAULTS.steps_per_move, 2)
+    assert path.dtype == np.float64
+    assert np.all(np.diff(path[:, 0]) >= 0)  # only ever towards the next row
+    # chipmunk moves bodies with the velocity they had before the step: the first
+    # step only accelerates, the second one moves.
+    assert path[0].tolist() == list(CENTRE)
+    assert path[1, 0] > CENTRE[0]
+    assert path[-1] == pytest.approx(NEIGHBOURS[Action.DOWN], abs=SNAP_ERROR_BOUND)
+    path[:] = 0  # a copy: the world's record is untouched
+    assert w.last_path[-1] == pytest.approx(NEIGHBOURS[Action.DOWN], abs=SNAP_ERROR_BOUND)
+
+
+def test_path_is_in_cell_units_whatever_the_cell_size():
+    # Every length, speed and force doubled: the same motion, measured in cells.
+    doubled = dataclasses.replace(
+        DEFAULTS, cell_size=2.0, robot_radius=0.6, max_speed=12.0, max_force=6000.0
+    )
+    big, small = world(doubled, record_path=True), world(record_path=True)
+    big.move(Action.RIGHT)
+    small.move(Action.RIGHT)
+    assert big.last_path == pytest.approx(small.last_path, abs=1e-9)
+    assert big.last_path[-1] == pytest.approx(NEIGHBOURS[Action.RIGHT], abs=SNAP_ERROR_BOUND)
+
+
+def test_reading_the_path_without_recording_says_how_to_turn_it_on():
+    w = world()
+    w.move(Action.DOWN)
+    with pytest.raises(RuntimeError, match="record_path=True"):
+        _ = w.last_path
+
+
+# ------------------------------------------------------------------ the world
+def test_walls_are_static_and_the_robot_is_a_real_dynamic_body():
+    w = world()
+    assert w.space.threads == 1
+    assert w.robot.body_type == pymunk.Body.DYNAMIC
+    assert w.robot.mass == pytest.approx(DEFAULTS.robot_mass)
+    expected_moment = pymunk.moment_for_circle(DEFAULTS.robot_mass, 0, DEFAULTS.robot_radius)
+    assert w.robot.moment == pytest.approx(expected_moment)
+    walls = [s for s in w.space.shapes if s.body.body_type == pymunk.Body.STATIC]
+    assert len(walls) == 4
+    assert w.control.body_type == pymunk.Body.KINEMATIC
+    assert w.joint.max_force == DEFAULTS.max_force
+    assert w.joint.max_bias == DEFAULTS.max_speed
+
+
+def test_start_off_the_floor_is_refused():
+    with pytest.raises(ValueError, match=r"start \(3, 0\) is off the 3x3 floor"):
+        world(start=(3, 0))
+
+
+def test_a_body_that_left_the_floor_is_reported_not_snapped():
+    w = world(start=(0, 0))
+    w.robot.position = (-5.0, 0.5)  # as if it had tunnelled through the left wall
+    with pytest.raises(RuntimeError, match="left the floor"):
+        w.move(Action.UP)

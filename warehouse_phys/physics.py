@@ -1,0 +1,377 @@
+"""The pymunk world: floor, walls, robot body, move controller and the fixed physics clock.
+
+The robot is a dynamic circle with real mass and moment on a frictionless
+top-down floor bounded by static walls. It is never teleported during a move:
+a kinematic *control body* is placed on the centre the robot should reach, and
+a pivot joint between the two pulls the robot there with a capped force and a
+capped speed (pymunk's recommended way to drive a body; see the ``tank.py``
+example). The joint is the controller; its gains are :class:`PhysicsConfig`
+fields, and the loop that runs a move does no per-step Python work beyond
+``Space.step``.
+
+One move is a fixed number of steps of a constant ``dt`` in two phases:
+
+1. **drive**: the control body sits on the centre of the next cell in the
+   direction of the action, even when that cell is beyond a wall;
+2. **settle**: the control body moves to the centre nearest to where the body
+   actually is, and the robot comes to rest there. After a free move this is
+   the next cell (the aim does not change). After a move into a wall, which
+   stopped the body, it is the robot's own cell: the robot visibly bumps into
+   the wall and drives back.
+
+At the end of the move the cell is read from the body's position (the nearest
+centre), the distance to that centre is reported as the *snap error*, and only
+then is the body snapped onto the centre with zero velocity.
+
+Coordinates: ``x = (col + 0.5) * cell_size``, ``y = (row + 0.5) * cell_size``
+in metres, so ``y`` grows downwards like the row index. Paths are reported in
+*cell units* ``(row, col)`` with cell centres at whole numbers, which is what
+the renderer takes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+import pymunk
+
+from warehouse_phys.grid import ACTION_DELTAS, Cell, WarehouseGrid
+
+#: Largest distance between the body and the centre it is snapped to at the end
+#: of a move, in cells, that the environment promises for every move [cells].
+SNAP_ERROR_BOUND = 0.02
+
+#: Thickness of the static walls around the floor [cells]. A wall this thick
+#: cannot be crossed in one physics step (steps are shorter than the robot's radius).
+WALL_THICKNESS = 1.0
+
+#: Overlap pymunk allows between touching shapes, to keep contacts steady [cells].
+COLLISION_SLOP = 0.002
+
+#: Friction coefficient of robot-wall contacts (rubber bumper on steel) [1].
+WALL_FRICTION = 0.6
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    """The physical parameters of the robot, its controller and the physics clock.
+
+    The defaults describe a 40 kg robot of 0.3 m radius on 1 m cells that
+    crosses one cell in a quarter of a second: 15 steps of 1/60 s per move,
+    one rendered frame per physics step at 60 fps.
+
+    Raises:
+        TypeError: if a field is not a real number.
+        ValueError: if a value makes no physical sense or cannot be simulated
+            faithfully: a non-positive or non-finite value, a robot as wide as
+            a cell, a ``dt`` longer than a move, a move that is not a whole
+            number of steps, a settle phase not shorter than the move, or a
+            top speed that would cross more than the robot's radius in one step
+            (the robot could then pass through a wall).
+    """
+
+    #: Side of one floor cell [m].
+    cell_size: float = 1.0
+    #: Radius of the round robot [m]; less than half a cell.
+    robot_radius: float = 0.3
+    #: Mass of the robot [kg]; its moment is that of a uniform disc.
+    robot_mass: float = 20.0
+    #: Floor drag [1/s]: a coasting robot's speed decays as ``exp(-floor_damping * t)``.
+    floor_damping: float = 1.0
+    #: Controller speed limit [m/s]: the pivot joint's ``max_bias``.
+    max_speed: float = 6.0
+    #: Controller force limit [N]: the pivot joint's ``max_force``.
+    max_force: float = 3000.0
+    #: Controller gain [1/s]: near its aim the robot closes the remaining distance
+    #: at ``gain`` times that distance per second (the joint's ``error_bias`` is
+    #: ``exp(-gain)``, the fraction of the error left after one second).
+    gain: float = 60.0
+    #: Length of one physics step [s]; constant, never taken from wall time.
+    dt: float = 1 / 60
+    #: Duration of one move [s]; a whole number of ``dt`` steps.
+    move_duration: float = 0.25
+    #: Last part of a move in which the robot settles on the centre nearest to it [s].
+    settle_time: float = 0.1
+
+    def __post_init__(self) -> None:
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+                raise TypeError(
+                    f"{field.name} must be a real number, got {value!r} ({type(value).__name__})"
+                )
+            if not math.isfinite(value) or value <= 0:
+                raise ValueError(f"{field.name} must be positive and finite, got {value!r}")
+        if self.robot_radius >= self.cell_size / 2:
+            raise ValueError(
+                f"robot_radius {self.robot_radius} m must be less than half the cell_size "
+                f"{self.cell_size} m: the robot must fit in a cell"
+            )
+        if self.dt > self.move_duration:
+            raise ValueError(
+                f"dt {self.dt} s is longer than move_duration {self.move_duration} s: "
+                "a move needs at least one physics step"
+            )
+        steps = self.move_duration / self.dt
+        if abs(steps - round(steps)) > 1e-6 * steps:
+            raise ValueError(
+                f"move_duration {self.move_duration} s is not a whole number of dt={self.dt} s "
+                f"steps ({steps:.4g}); one action must be a fixed number of physics steps"
+            )
+        if not 1 <= self.settle_steps < self.steps_per_move:
+            raise ValueError(
+                f"settle_time {self.settle_time} s must be at least one step (dt={self.dt} s) "
+                f"and shorter than move_duration {self.move_duration} s"
+            )
+        if self.max_speed * self.dt >= self.robot_radius:
+            raise ValueError(
+                f"max_speed {self.max_speed} m/s covers {self.max_speed * self.dt:.3g} m in one "
+                f"step of dt={self.dt} s, not less than robot_radius {self.robot_radius} m: "
+                "the robot could pass through a wall; lower max_speed or dt"
+            )
+
+    @property
+    def steps_per_move(self) -> int:
+        """Physics steps in one move."""
+        return round(self.move_duration / self.dt)
+
+    @property
+    def settle_steps(self) -> int:
+        """Physics steps of the settle phase, at the end of every move."""
+        return round(self.settle_time / self.dt)
+
+
+class MoveResult(NamedTuple):
+    """How a move ended: the cell read from the body, and how far it was from its centre."""
+
+    cell: Cell
+    #: Distance between the body and ``cell``'s centre just before the snap [cells].
+    snap_error: float
+
+
+class PhysicsWorld:
+    """A pymunk space with the floor's walls, the robot body and its controller.
+
+    The world is built fresh for every episode (see :meth:`__init__`), so no
+    contact cache or solver state carries over from one episode to the next
+    and a seed replays bit for bit.
+
+    Args:
+        grid: the floor to build walls around.
+        config: the physical parameters.
+        start: the cell the robot starts on, at rest.
+        record_path: whether :meth:`move` records the body's position after
+            every physics step (see :attr:`last_path`). It costs about a third
+            of a move's time, so training leaves it off.
+    """
+
+    def __init__(
+        self,
+        grid: WarehouseGrid,
+        config: PhysicsConfig,
+        start: tuple[int, int],
+        *,
+        record_path: bool = False,
+    ) -> None:
+        if not grid.contains(start):
+            raise ValueError(f"start {tuple(start)} is off the {grid.rows}x{grid.cols} floor")
+        self.grid = grid
+        self.config = config
+        self.record_path = record_path
+        self._cell_size = config.cell_size
+        self._dt = config.dt
+        self._drive_steps = config.steps_per_move - config.settle_steps
+        self._settle_steps = config.settle_steps
+        self._path: list[pymunk.Vec2d] = []
+
+        space = pymunk.Space()
+        space.threads = 1  # one thread: the solver order, hence every bit, is reproducible
+        space.damping = math.exp(-config.floor_damping)  # fraction of velocity kept after 1 s
+        # pymunk's default overlap allowance (0.1) suits pixel units; in metres it would
+        # let the robot sink 10 cm into a wall.
+        space.collision_slop = COLLISION_SLOP * config.cell_size
+        space.add(*_wall_shapes(space.static_body, grid.rows, grid.cols, config.cell_size))
+
+        robot = pymunk.Body()
+        shape = pymunk.Circle(robot, config.robot_radius)
+        shape.mass = config.robot_mass  # pymunk derives the moment of a uniform disc
+        shape.friction = WALL_FRICTION
+        shape.elasticity = 0.0
+        robot.position = self.centre(start)
+        space.add(robot, shape)
+
+        # The controller: a kinematic body on the aim point, joined to the robot by
+        # a pivot joint whose force and correction speed are capped.
+        control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        control.position = robot.position
+        joint = pymunk.PivotJoint(control, robot, (0, 0), (0, 0))
+        joint.max_force = config.max_force
+        joint.max_bias = config.max_speed
+        joint.error_bias = math.exp(-config.gain)
+        joint.collide_bodies = False
+        space.add(control, joint)
+
+        self.space = space
+        self._step = _raw_step(space)
+        self.robot = robot
+        self.robot_shape = shape
+        self.control = control
+        self.joint = joint
+        self.cell = Cell(int(start[0]), int(start[1]))
+
+    def centre(self, cell: tuple[int, int]) -> tuple[float, float]:
+        """The centre of ``cell`` (on the floor or beyond it) as world ``(x, y)`` [m]."""
+        size = self._cell_size
+        return ((cell[1] + 0.5) * size, (cell[0] + 0.5) * size)
+
+    def cell_at(self, x: float, y: float) -> Cell:
+        """The cell whose centre is nearest to the point ``(x, y)`` [m] (the cell holding it)."""
+        return Cell(math.floor(y / self._cell_size), math.floor(x / self._cell_size))
+
+    def move(self, action: int) -> MoveResult:
+        """Drive the robot one cell in the direction of ``action``, then snap it.
+
+        Returns the cell the body ended in (read from its position) and the
+        distance from the body to that cell's centre before the snap.
+
+        Raises:
+            RuntimeError: if the body's position is not finite or it left the
+                floor, which a supported configuration never allows.
+        """
+        d_row, d_col = ACTION_DELTAS[action]
+        aim = Cell(self.cell[0] + d_row, self.cell[1] + d_col)  # beyond a wall, if one is there
+        self._path.clear()
+        self.control.position = self.centre(aim)
+        x, y = self._advance(self._drive_steps)
+        settle_on = self.cell_at(x, y)
+        if settle_on != aim:  # a wall stopped the body: drive back to the centre it is nearest
+            self.control.position = self.centre(settle_on)
+        x, y = self._advance(self._settle_steps)
+
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise RuntimeError(f"the robot's position became {x!r}, {y!r}")
+        cell = self.cell_at(x, y)
+        if not self.grid.contains(cell):
+            raise RuntimeError(f"the robot left the floor: it is at ({x:.3f}, {y:.3f}) m")
+        centre = self.centre(cell)
+        snap_error = math.hypot(x - centre[0], y - centre[1]) / self._cell_size
+        # The one teleport: onto the centre, at rest, with the aim on it too.
+        robot = self.robot
+        robot.position = centre
+        robot.velocity = (0.0, 0.0)
+        robot.angular_velocity = 0.0
+        if cell != settle_on:
+            self.control.position = centre
+        self.cell = cell
+        return MoveResult(cell, snap_error)
+
+    def _advance(self, steps: int) -> tuple[float, float]:
+        """Run ``steps`` physics steps, recording the path if asked; the body's final ``(x, y)``."""
+        step, dt, robot = self._step, self._dt, self.robot
+        if self.record_path:
+            path = self._path
+            for _ in range(steps):
+                step(dt)
+                path.append(robot.position)
+            return path[-1]
+        for _ in range(steps):
+            step(dt)
+        return robot.position
+
+    @property
+    def last_path(self) -> np.ndarray:
+        """The body's positions after each physics step of the last move, before the snap.
+
+        A float64 array of shape ``(steps_per_move, 2)`` holding ``(row, col)``
+        in cell units (cell centres at whole numbers); a fresh copy. Empty
+        before the first recorded move.
+
+        Raises:
+            RuntimeError: if the world does not record paths.
+        """
+        if not self.record_path:
+            raise RuntimeError("this world does not record paths; build it with record_path=True")
+        if not self._path:
+            return np.empty((0, 2))
+        xy = np.array(self._path, dtype=np.float64) / self._cell_size - 0.5
+        return xy[:, ::-1].copy()
+
+
+def _raw_step(space: pymunk.Space) -> Callable[[float], None]:
+    """``space.step`` without pymunk's Python bookkeeping, for the hot loop of a move.
+
+    ``Space.step`` wraps chipmunk's ``cpSpaceStep`` in queues and checks that
+    matter only while bodies are being added or removed or collision callbacks
+    run; a built world has none of those. Calling the C function directly
+    halves the cost of a physics step (about 0.7 against 1.5 microseconds on
+    the development machine), which is most of the cost of an action. If a
+    pymunk release moves these internals, this falls back to ``space.step``;
+    a test checks that both give bit-identical paths.
+    """
+    try:
+        from pymunk._chipmunk import lib
+
+        handle = space._space
+        step = lib.cpSpaceStep
+    except (ImportError, AttributeError):  # pragma: no cover - depends on pymunk's internals
+        return space.step
+    return functools.partial(step, handle)
+
+
+def _wall_shapes(
+    static_body: pymunk.Body, rows: int, cols: int, cell_size: float
+) -> list[pymunk.Poly]:
+    """Four thick boxes just outside the ``rows`` x ``cols`` floor, overlapping at the corners."""
+    thick = WALL_THICKNESS * cell_size
+    width, height = cols * cell_size, rows * cell_size
+    boxes = (
+        (-thick, -thick, width + thick, 0.0),  # top, above row 0
+        (-thick, height, width + thick, height + thick),  # bottom
+        (-thick, 0.0, 0.0, height),  # left
+        (width, 0.0, width + thick, height),  # right
+    )
+    shapes = []
+    for left, top, right, bottom in boxes:
+        wall = pymunk.Poly(
+            static_body, [(left, top), (right, top), (right, bottom), (left, bottom)]
+        )
+        wall.friction = WALL_FRICTION
+        wall.elasticity = 0.0
+        shapes.append(wall)
+    return shapes
+
+
+def check_controller(config: PhysicsConfig) -> None:
+    """Refuse a configuration whose controller cannot finish a move within the bound.
+
+    Runs a free move and a move into a wall on a small floor. The environments
+    call this once when they are built, so a controller that is too weak, too
+    slow or given too short a move fails at once with a message instead of
+    silently leaving the robot short of its cell.
+
+    Raises:
+        ValueError: if the free move does not end on the next cell, the wall
+            move does not end on the robot's own cell, or either ends
+            :data:`SNAP_ERROR_BOUND` cells or more from its centre.
+    """
+    grid = WarehouseGrid(2, 2)
+    advice = "raise max_force, max_speed or gain, or lengthen move_duration"
+    probes = ((2, "a free move", Cell(0, 1)), (0, "a move into a wall", Cell(0, 0)))
+    for action, name, expected in probes:  # RIGHT onto the floor, LEFT into the wall
+        result = PhysicsWorld(grid, config, (0, 0)).move(action)
+        if result.cell != expected:
+            raise ValueError(
+                f"with these settings {name} from (0, 0) ends on {tuple(result.cell)}, "
+                f"not {tuple(expected)}: the controller cannot bring the robot there; {advice}"
+            )
+        if not result.snap_error < SNAP_ERROR_BOUND:
+            raise ValueError(
+                f"with these settings {name} ends {result.snap_error:.3g} cells from the centre, "
+                f"not within the bound of {SNAP_ERROR_BOUND}; {advice}"
+            )
