@@ -29,6 +29,19 @@ def main() -> None:
     save(env.render(), "grid_frame.png")
     env.close()
 
+    # One move of the physics-backed twin: frames of the body between two cells.
+    env = gym.make(warehouse_phys.PHYSICS_ENV_ID, render_mode="rgb_array", cell_px=40)
+    env.reset(options={"target": (3, 3)})
+    for action in (Action.DOWN, Action.RIGHT):
+        env.step(action)
+    env.step(Action.DOWN)
+    frames = env.unwrapped.move_frames()
+    picks = [frames[i] for i in (0, 3, 6, 9)] + [env.render()]
+    gap = np.full((picks[0].shape[0], 6, 3), 255, dtype=np.uint8)
+    strip = [part for frame in picks for part in (frame, gap)][:-1]
+    save(np.concatenate(strip, axis=1), "phys_move_strip.png")
+    env.close()
+
 
 if __name__ == "__main__":
     main()

@@ -1,6 +1,7 @@
 """The package as a user installs it: wheel contents, sprites outside a checkout, the CLI, lint."""
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -59,6 +60,14 @@ def test_train_command_says_it_is_not_available_and_fails():
     )
     assert result.returncode == 1
     assert "trainer is not available" in result.stderr
+
+
+def test_readme_python_examples_run():
+    readme = (ROOT / "README.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", readme, re.DOTALL)
+    assert len(blocks) >= 2
+    for block in blocks:  # each on its own, as a reader would paste it
+        exec(compile(block, "README.md", "exec"), {})
 
 
 @pytest.mark.parametrize("check", [["check"], ["format", "--check"]])
