@@ -1,24 +1,334 @@
-"""``python -m warehouse_phys.train``: the command line of the tabular Q-learning trainer.
+"""``python -m warehouse_phys.train``: train tabular Q-learning, save, plot and evaluate.
 
-The trainer is not part of this version yet. Until it is, the command says so
-and exits with status 1, so that scripts and CI cannot mistake it for a run.
+With no arguments: 1000 episodes with the tutorial's hyper-parameters on the
+physics-backed environment, headless, with a progress bar; then the run folder
+``runs/<env>-seed<seed>-<time>/`` receives the table (``qtable.npz``), the
+learning curve (``learning_curve.png``) and a JSON summary (``summary.json``),
+and the greedy policy is evaluated against every target and printed as a table.
+
+    python -m warehouse_phys.train --env grid --episodes 2000 --seed 3
+    python -m warehouse_phys.train --eval runs/phys-seed0-20260101-120000/qtable.npz
+    python -m warehouse_phys.train --rows 3 --cols 3 --render
+
+Bad arguments and unusable tables end with exit status 2 and a one-line
+message, before anything is written. The algorithm lives in
+:mod:`warehouse_phys.qlearning`; this module is only the command line.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import os
 import sys
+import time
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any, NoReturn
 
-NOT_AVAILABLE = (
-    "warehouse_phys.train: the Q-learning trainer is not available in this version yet. "
-    'The environment is: `import warehouse_phys` then `gym.make("warehouse-robot-v0")` '
-    "(see README.md)."
+import gymnasium as gym
+
+import warehouse_phys
+from warehouse_phys.atomic import atomic_write_text
+from warehouse_phys.qlearning import (
+    Evaluation,
+    QLearningConfig,
+    QTableError,
+    TrainingResult,
+    evaluate,
+    greedy_action,
+    load_q_table,
+    save_q_table,
+    table_metadata,
+    train,
 )
+
+PROG = "python -m warehouse_phys.train"
+#: The ``--env`` names and the environment ids they stand for.
+ENVIRONMENTS = {"phys": warehouse_phys.PHYSICS_ENV_ID, "grid": warehouse_phys.GRID_ENV_ID}
+DEFAULT_ENV = "phys"
+DEFAULT_RUNS_DIR = Path("runs")
+TABLE_FILE, CURVE_FILE, SUMMARY_FILE = "qtable.npz", "learning_curve.png", "summary.json"
+
+
+class UsageError(Exception):
+    """A bad command line or input file: reported in one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(message)
+
+
+def _bounded_int(minimum: int, what: str) -> Any:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+        return value
+
+    return parse
+
+
+def _fraction(low_open: bool) -> Any:
+    interval = "(0, 1]" if low_open else "[0, 1]"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected a number in {interval}, got {text!r}"
+            ) from None
+        if not (0 < value <= 1 if low_open else 0 <= value <= 1):
+            raise argparse.ArgumentTypeError(f"expected a number in {interval}, got {value:g}")
+        return value
+
+    return parse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line's argument parser."""
+    defaults = QLearningConfig()
+    parser = _Parser(
+        prog=PROG,
+        description="Train tabular Q-learning on the warehouse robot, save, plot and evaluate.",
+    )
+    parser.add_argument(
+        "--env",
+        choices=sorted(ENVIRONMENTS),
+        help=f"environment: phys ({ENVIRONMENTS['phys']}) or grid ({ENVIRONMENTS['grid']}); "
+        f"default {DEFAULT_ENV}, or with --eval the table's own",
+    )
+    parser.add_argument(
+        "--episodes",
+        type=_bounded_int(1, "a positive number of episodes"),
+        default=defaults.episodes,
+        help=f"training episodes (default {defaults.episodes})",
+    )
+    parser.add_argument(
+        "--seed",
+        type=_bounded_int(0, "a non-negative integer seed"),
+        default=defaults.seed,
+        help=f"seed of the environment and the agent (default {defaults.seed})",
+    )
+    parser.add_argument(
+        "--rows",
+        type=_bounded_int(2, "at least 2 rows"),
+        help="grid rows (default 4; with --eval it must match the table)",
+    )
+    parser.add_argument(
+        "--cols",
+        type=_bounded_int(2, "at least 2 columns"),
+        help="grid columns (default 5; with --eval it must match the table)",
+    )
+    parser.add_argument(
+        "--alpha",
+        type=_fraction(low_open=True),
+        default=defaults.alpha,
+        help=f"learning rate in (0, 1] (default {defaults.alpha})",
+    )
+    parser.add_argument(
+        "--gamma",
+        type=_fraction(low_open=False),
+        default=defaults.gamma,
+        help=f"discount factor in [0, 1] (default {defaults.gamma})",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        help="run folder to write (default runs/<env>-seed<seed>-<time>)",
+    )
+    parser.add_argument(
+        "--render",
+        action="store_true",
+        help="afterwards, watch one greedy episode in a window",
+    )
+    parser.add_argument(
+        "--eval",
+        type=Path,
+        metavar="PATH",
+        help="evaluate the table saved at PATH instead of training",
+    )
+    parser.add_argument(
+        "--quiet", action="store_true", help="print nothing on success, show no progress bar"
+    )
+    return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Report that training is not available; returns the exit status (1)."""
-    print(NOT_AVAILABLE, file=sys.stderr)
-    return 1
+    """Run the command line; returns the exit status."""
+    try:
+        args = build_parser().parse_args(argv)
+        if args.eval is not None:
+            return _evaluate_saved(args)
+        return _train(args)
+    except UsageError as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted; nothing was written", file=sys.stderr)
+        return 130
+
+
+# ----------------------------------------------------------------- training
+def _train(args: argparse.Namespace) -> int:
+    env_name = args.env or DEFAULT_ENV
+    env_id = ENVIRONMENTS[env_name]
+    rows, cols = args.rows or 4, args.cols or 5
+    config = QLearningConfig(
+        episodes=args.episodes, alpha=args.alpha, gamma=args.gamma, seed=args.seed
+    )
+    started = time.localtime()
+    run_dir = args.out or _new_run_dir(env_name, args.seed, started)
+    _check_writable(run_dir)
+
+    env = gym.make(env_id, grid_rows=rows, grid_cols=cols)
+    progress = _progress_bar(config.episodes, env_id, disable=args.quiet)
+    start = time.perf_counter()
+    try:
+        result = train(env, config, on_episode=lambda _: progress.update())
+    finally:
+        progress.close()
+    seconds = time.perf_counter() - start
+    evaluation = evaluate(env, result.q)
+    env.close()
+
+    _write_run(run_dir, env, result, evaluation, seconds, started)
+    if not args.quiet:
+        print(
+            f"trained {config.episodes} episodes on {env_id} ({rows}x{cols}) in {seconds:.2f} s; "
+            f"{int(result.reached_target.sum())} reached the target, "
+            f"{int(result.truncated.sum())} were truncated"
+        )
+        print(evaluation.table())
+        print(f"wrote {run_dir / TABLE_FILE}, {CURVE_FILE} and {SUMMARY_FILE}")
+    if args.render:
+        _watch(env_id, rows, cols, result.q, seed=args.seed)
+    return 0
+
+
+def _new_run_dir(env_name: str, seed: int, started: time.struct_time) -> Path:
+    """``runs/<env>-seed<seed>-<time>``, with a suffix if that folder already exists."""
+    name = f"{env_name}-seed{seed}-{time.strftime('%Y%m%d-%H%M%S', started)}"
+    run_dir, n = DEFAULT_RUNS_DIR / name, 1
+    while run_dir.exists():
+        n += 1
+        run_dir = DEFAULT_RUNS_DIR / f"{name}-{n}"
+    return run_dir
+
+
+def _check_writable(run_dir: Path) -> None:
+    """Refuse, before training, a run folder that could not be written."""
+    if run_dir.exists() and not run_dir.is_dir():
+        raise UsageError(f"--out {run_dir} exists and is not a folder")
+    existing = run_dir
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(f"cannot write the run folder {run_dir}: {existing} is not writable")
+
+
+def _progress_bar(episodes: int, env_id: str, *, disable: bool) -> Any:
+    from tqdm import tqdm
+
+    # disable=None: tqdm switches itself off when stderr is not a terminal.
+    return tqdm(
+        total=episodes,
+        desc=f"training on {env_id}",
+        unit="episode",
+        disable=True if disable else None,
+        file=sys.stderr,
+    )
+
+
+def _write_run(
+    run_dir: Path,
+    env: gym.Env,
+    result: TrainingResult,
+    evaluation: Evaluation,
+    seconds: float,
+    started: time.struct_time,
+) -> None:
+    """The table, the learning curve and the summary, each written atomically."""
+    from warehouse_phys.plots import learning_curve_figure, save_figure
+
+    run_dir.mkdir(parents=True, exist_ok=True)
+    metadata = table_metadata(env, result.config)
+    save_q_table(run_dir / TABLE_FILE, result.q, metadata)
+    grid = f"{metadata['grid_rows']}x{metadata['grid_cols']}"
+    title = f"{metadata['env_id']} {grid}, seed {result.config.seed}"
+    save_figure(learning_curve_figure(result, title), run_dir / CURVE_FILE)
+    last = slice(-min(100, len(result.steps)), None)
+    summary = {
+        "env_id": metadata["env_id"],
+        "grid": [metadata["grid_rows"], metadata["grid_cols"]],
+        "config": asdict(result.config),
+        "package_version": warehouse_phys.__version__,
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", started),
+        "training_seconds": round(seconds, 4),
+        "training": {
+            "episodes": len(result.steps),
+            "reached_target": int(result.reached_target.sum()),
+            "truncated": int(result.truncated.sum()),
+            "total_steps": int(result.steps.sum()),
+            "mean_steps_last_100": float(result.steps[last].mean()),
+            "success_rate_last_100": float(result.reached_target[last].mean()),
+        },
+        "evaluation": evaluation.to_json(),
+        "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
+    }
+    atomic_write_text(run_dir / SUMMARY_FILE, json.dumps(summary, indent=2) + "\n")
+
+
+# --------------------------------------------------------------- evaluation
+def _evaluate_saved(args: argparse.Namespace) -> int:
+    try:
+        q, metadata = load_q_table(args.eval)
+    except QTableError as error:
+        raise UsageError(f"--eval: {error}") from None
+    table_grid = (metadata["grid_rows"], metadata["grid_cols"])
+    asked = (args.rows or table_grid[0], args.cols or table_grid[1])
+    if asked != table_grid:
+        raise UsageError(
+            f"--eval: {args.eval} holds a table for a {table_grid[0]}x{table_grid[1]} grid, "
+            f"not {asked[0]}x{asked[1]}"
+        )
+    if args.env is not None:
+        env_id = ENVIRONMENTS[args.env]
+    elif metadata["env_id"] in ENVIRONMENTS.values():
+        env_id = metadata["env_id"]
+    else:
+        raise UsageError(
+            f"--eval: the table was trained on {metadata['env_id']!r}; choose --env grid or phys"
+        )
+    env = gym.make(env_id, grid_rows=table_grid[0], grid_cols=table_grid[1])
+    evaluation = evaluate(env, q)
+    env.close()
+    if not args.quiet:
+        print(
+            f"evaluating {args.eval} ({metadata['env_id']}, {table_grid[0]}x{table_grid[1]}, "
+            f"{metadata['episodes']} episodes, seed {metadata['seed']}) on {env_id}"
+        )
+        print(evaluation.table())
+    if args.render:
+        _watch(env_id, *table_grid, q, seed=args.seed)
+    return 0
+
+
+def _watch(env_id: str, rows: int, cols: int, q: Any, *, seed: int) -> None:
+    """Play one greedy episode in a window until the target, the time limit or a closed window."""
+    env = gym.make(env_id, grid_rows=rows, grid_cols=cols, render_mode="human")
+    try:
+        obs, _ = env.reset(seed=seed)
+        terminated = truncated = False
+        while not (terminated or truncated or env.unwrapped.user_closed_window):
+            obs, _, terminated, truncated, _ = env.step(greedy_action(q, obs))
+    finally:
+        env.close()
 
 
 if __name__ == "__main__":

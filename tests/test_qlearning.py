@@ -1,0 +1,378 @@
+"""Tabular Q-learning as a library: the update, the schedule, records, evaluation, save and load."""
+
+import io
+import json
+import os
+import pickle
+import zipfile
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import warehouse_phys
+from warehouse_phys import Action
+from warehouse_phys.qlearning import (
+    TABLE_FORMAT,
+    QLearningConfig,
+    QTableError,
+    evaluate,
+    load_q_table,
+    new_q_table,
+    save_q_table,
+    table_metadata,
+    train,
+)
+
+GRID_ID = warehouse_phys.GRID_ENV_ID
+PHYS_ID = warehouse_phys.PHYSICS_ENV_ID
+
+
+@pytest.fixture(scope="module")
+def trained():
+    """The default run on the grid twin (about 0.2 s)."""
+    env = gym.make(GRID_ID)
+    return env, train(env, QLearningConfig())
+
+
+# ------------------------------------------------------------------- config
+def test_defaults_are_the_tutorials():
+    config = QLearningConfig()
+    assert (config.episodes, config.alpha, config.gamma, config.seed) == (1000, 0.9, 0.9, 0)
+    assert config.epsilon(0) == 1.0
+    assert config.epsilon(1) == pytest.approx(1 - 1 / 1000)
+    assert config.epsilon(500) == pytest.approx(0.5)
+    assert config.epsilon(1000) == 0.0
+    assert config.epsilon(5000) == 0.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"episodes": 0}, ValueError, "episodes must be at least 1, got 0"),
+        ({"episodes": 2.5}, TypeError, "episodes must be an integer"),
+        ({"alpha": 0.0}, ValueError, r"alpha must be in \(0, 1\], got 0.0"),
+        ({"alpha": 1.5}, ValueError, "alpha must be in"),
+        ({"gamma": -0.1}, ValueError, r"gamma must be in \[0, 1\]"),
+        ({"gamma": "0.9"}, TypeError, "gamma must be a number"),
+        ({"seed": -1}, ValueError, "seed must be non-negative"),
+    ],
+)
+def test_bad_hyper_parameters_are_refused(kwargs, error, message):
+    with pytest.raises(error, match=message):
+        QLearningConfig(**kwargs)
+
+
+# ------------------------------------------------------------------ training
+def test_the_update_rule_on_a_hand_worked_episode():
+    """Two episodes with alpha=0.5, gamma=0.5 on a 2x2 floor, checked by hand."""
+    env = gym.make(GRID_ID, grid_rows=2, grid_cols=2)
+    # A 2x2 floor has one target cell, (1, 1); all exploration: epsilon is 1 in episode 0.
+    result = train(env, QLearningConfig(episodes=1, alpha=0.5, gamma=0.5, seed=4))
+    q = result.q
+    # Replay the same actions to see the transitions the agent saw.
+    rng = np.random.default_rng([4, 1])
+    expected = new_q_table(2, 2)
+    state = (0, 0, 1, 1)
+    for _ in range(result.steps[0]):
+        rng.random()  # the explore/exploit draw; epsilon = 1 always explores
+        action = int(rng.integers(4))
+        nxt = (*env.unwrapped.grid.move(state[:2], action), 1, 1)
+        reward = 1.0 if nxt[:2] == (1, 1) else 0.0
+        target = reward if reward else reward + 0.5 * expected[nxt].max()
+        expected[(*state, action)] += 0.5 * (target - expected[(*state, action)])
+        state = nxt
+    assert state[:2] == (1, 1)
+    assert np.array_equal(q, expected)
+    assert q.max() == 0.5  # the last step earned half of the reward of 1
+
+
+def test_no_bootstrap_from_a_terminal_state():
+    env = gym.make(GRID_ID, grid_rows=2, grid_cols=2)
+    result = train(env, QLearningConfig(episodes=300, alpha=1.0, gamma=0.9, seed=0))
+    # With alpha=1 each value is its last target: stepping onto the target is worth exactly 1.
+    assert result.q[0, 1, 1, 1, Action.DOWN] == 1.0
+    assert result.q[1, 0, 1, 1, Action.RIGHT] == 1.0
+    # One step further back: gamma times that, never more.
+    assert result.q[0, 0, 1, 1, Action.RIGHT] == pytest.approx(0.9)
+    assert result.q.max() == 1.0
+
+
+def test_records_have_one_entry_per_episode(trained):
+    _, result = trained
+    assert len(result.steps) == len(result.returns) == len(result.reached_target) == 1000
+    assert result.epsilon[0] == 1.0
+    assert result.epsilon[-1] == pytest.approx(0.001)
+    assert np.array_equal(result.returns, result.reached_target.astype(float))
+    assert result.reached_target.all()
+    assert not result.truncated.any()
+    assert result.steps[-100:].mean() < result.steps[:100].mean() / 3
+
+
+def test_truncated_episodes_are_counted_as_such():
+    # A 2-step time limit on a 6x6 floor: most targets are out of reach.
+    env = gym.make(GRID_ID, grid_rows=6, grid_cols=6, max_episode_steps=2)
+    result = train(env, QLearningConfig(episodes=200, seed=1))
+    assert result.truncated.sum() + result.reached_target.sum() == 200
+    assert result.truncated.sum() > 150
+    assert (result.steps[result.truncated] == 2).all()
+    assert (result.returns[result.truncated] == 0).all()
+    assert (result.steps[result.reached_target] == 2).all()  # only 2-step targets are reachable
+
+
+def test_training_is_deterministic_and_seeded(trained):
+    _, result = trained
+    again = train(gym.make(GRID_ID), QLearningConfig())
+    assert np.array_equal(result.q, again.q)
+    assert np.array_equal(result.steps, again.steps)
+    other = train(gym.make(GRID_ID), QLearningConfig(seed=1))
+    assert not np.array_equal(result.steps, other.steps)
+
+
+def test_both_worlds_learn_the_same_table():
+    """Same seed, same trajectories: the physics-backed run learns bit for bit the same table."""
+    config = QLearningConfig(episodes=150, seed=2)
+    grid = train(gym.make(GRID_ID, grid_rows=3, grid_cols=4), config)
+    phys = train(gym.make(PHYS_ID, grid_rows=3, grid_cols=4), config)
+    assert np.array_equal(grid.q, phys.q)
+    assert np.array_equal(grid.steps, phys.steps)
+
+
+def test_progress_callback_sees_every_episode():
+    seen = []
+    train(gym.make(GRID_ID), QLearningConfig(episodes=7), on_episode=seen.append)
+    assert seen == list(range(7))
+
+
+def test_a_non_warehouse_environment_is_refused():
+    with pytest.raises(ValueError, match="not a warehouse environment"):
+        train(gym.make("FrozenLake-v1"), QLearningConfig(episodes=1))
+
+
+# ---------------------------------------------------------------- evaluation
+def test_default_training_reaches_every_target_by_a_shortest_path(trained):
+    env, result = trained
+    evaluation = evaluate(env, result.q)
+    assert len(evaluation.results) == 12
+    assert {r.target for r in evaluation.results} == set(env.unwrapped.grid.target_cells)
+    assert evaluation.all_optimal
+    assert all(r.steps == r.target[0] + r.target[1] for r in evaluation.results)
+    assert evaluation.summary() == "all 12 targets reached by a shortest path"
+
+
+def test_evaluation_reports_targets_never_reached():
+    env = gym.make(GRID_ID, max_episode_steps=50)
+    evaluation = evaluate(env, new_q_table(4, 5))  # all zeros: LEFT against the wall for ever
+    assert evaluation.reached == evaluation.optimal == 0
+    assert not evaluation.all_optimal
+    assert all(r.steps is None for r in evaluation.results)
+    assert evaluation.table().splitlines()[1] == "(1, 1)          -        2  not reached"
+    assert evaluation.summary() == "0 of 12 targets reached, 0 of them by a shortest path"
+
+
+def detour_table(rows=4, cols=5):
+    """A policy that always reaches the target the long way: along row 0 to the last
+    column, down to the target's row, then left."""
+    q = new_q_table(rows, cols)
+    for r, c, tr, tc in np.ndindex(rows, cols, rows, cols):
+        if r == 0 and c < cols - 1:
+            best = Action.RIGHT
+        elif r < tr:
+            best = Action.DOWN
+        elif c > tc:
+            best = Action.LEFT
+        else:
+            best = Action.RIGHT
+        q[r, c, tr, tc, best] = 1.0
+    return q
+
+
+def test_evaluation_counts_the_steps_of_a_detour():
+    env = gym.make(GRID_ID)
+    evaluation = evaluate(env, detour_table())
+    assert evaluation.reached == 12
+    by_target = {r.target: r for r in evaluation.results}
+    for (tr, tc), result in by_target.items():
+        assert result.steps == 4 + tr + (4 - tc)
+        assert result.optimal_steps == tr + tc
+        assert result.optimal is (tc == 4)
+    assert evaluation.optimal == 3
+    assert "(1, 1)          8        2  6 too many" in evaluation.table()
+    assert evaluation.summary() == "12 of 12 targets reached, 3 of them by a shortest path"
+    assert evaluation.to_json()["results"][0] == {"target": [1, 1], "steps": 8, "optimal_steps": 2}
+
+
+def test_evaluation_refuses_a_table_for_another_grid(trained):
+    _, result = trained
+    with pytest.raises(ValueError, match=r"does not fit a 3x3 grid"):
+        evaluate(gym.make(GRID_ID, grid_rows=3, grid_cols=3), result.q)
+
+
+# -------------------------------------------------------------- save and load
+def test_save_and_load_round_trip(tmp_path, trained):
+    env, result = trained
+    path = save_q_table(tmp_path / "q.npz", result.q, table_metadata(env, result.config))
+    q, metadata = load_q_table(path)
+    assert np.array_equal(q, result.q)
+    assert q.dtype == np.float64
+    assert metadata == {
+        "format": TABLE_FORMAT,
+        "format_version": 1,
+        "env_id": GRID_ID,
+        "grid_rows": 4,
+        "grid_cols": 5,
+        "episodes": 1000,
+        "alpha": 0.9,
+        "gamma": 0.9,
+        "seed": 0,
+        "package_version": warehouse_phys.__version__,
+    }
+    # The loaded table evaluates the same as the trained one.
+    assert evaluate(env, q) == evaluate(env, result.q)
+    assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
+
+
+def test_saving_over_an_old_table_replaces_it(tmp_path, trained):
+    env, result = trained
+    path = tmp_path / "q.npz"
+    meta = table_metadata(env, result.config)
+    save_q_table(path, new_q_table(4, 5), meta)
+    save_q_table(path, result.q, meta)
+    assert np.array_equal(load_q_table(path)[0], result.q)
+
+
+def test_a_failed_save_leaves_no_half_written_file(tmp_path, trained, monkeypatch):
+    env, result = trained
+    path = tmp_path / "q.npz"
+    meta = table_metadata(env, result.config)
+    save_q_table(path, result.q, meta)
+    before = path.read_bytes()
+
+    def fail_half_way(file, **arrays):
+        file.write(b"PK\x03\x04 half an archive")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(np, "savez_compressed", fail_half_way)
+    with pytest.raises(OSError, match="disk full"):
+        save_q_table(path, new_q_table(4, 5), meta)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["q.npz"]
+    with pytest.raises(OSError, match="disk full"):
+        save_q_table(tmp_path / "new.npz", result.q, meta)
+    assert not (tmp_path / "new.npz").exists()
+
+
+def test_saving_a_table_that_would_not_load_is_refused(tmp_path, trained):
+    env, result = trained
+    meta = table_metadata(env, result.config)
+    bad = result.q.copy()
+    bad[0, 0, 1, 1, 0] = np.nan
+    with pytest.raises(QTableError, match="NaN or infinite"):
+        save_q_table(tmp_path / "q.npz", bad, meta)
+    with pytest.raises(QTableError, match="does not match its 4x5 grid"):
+        save_q_table(tmp_path / "q.npz", new_q_table(3, 3), meta)
+    assert not (tmp_path / "q.npz").exists()
+
+
+class _Explode:
+    """Unpickling this would create the file named in its argument."""
+
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def write_npz(path, **arrays):
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, data in arrays.items():
+            buffer = io.BytesIO()
+            np.lib.format.write_array(buffer, data, allow_pickle=True)
+            archive.writestr(f"{name}.npy", buffer.getvalue())
+
+
+def good_metadata(**changes):
+    meta = {
+        "format": TABLE_FORMAT,
+        "format_version": 1,
+        "env_id": GRID_ID,
+        "grid_rows": 4,
+        "grid_cols": 5,
+        "episodes": 10,
+        "alpha": 0.9,
+        "gamma": 0.9,
+        "seed": 0,
+        "package_version": "0.1.0",
+    }
+    meta.update(changes)
+    return np.array(json.dumps(meta))
+
+
+def test_pickle_payloads_are_refused_and_never_run(tmp_path):
+    marker = tmp_path / "pwned"
+    pickled = tmp_path / "table.pkl"
+    pickled.write_bytes(pickle.dumps(_Explode(str(marker))))
+    with pytest.raises(QTableError, match="holds pickled data, which is never loaded"):
+        load_q_table(pickled)
+    obj = np.empty((), dtype=object)
+    obj[()] = _Explode(str(marker))
+    inside = tmp_path / "object.npz"
+    write_npz(inside, q=obj, metadata=good_metadata())
+    with pytest.raises(QTableError, match="object array, which needs pickle"):
+        load_q_table(inside)
+    assert not marker.exists()
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda p: None, "no such file"),
+        (lambda p: p.mkdir(), "not a file"),
+        (lambda p: p.write_text("q = [[0, 1]]\n"), "not an .npz archive"),
+        (lambda p: np.save(p.with_suffix(".npy"), np.zeros(3)) or os.replace(
+            p.with_suffix(".npy"), p), "not an .npz archive"),
+        (lambda p: write_npz(p, metadata=good_metadata()), "has no 'q' array"),
+        (lambda p: write_npz(p, q=np.zeros((4, 5, 4, 5, 4))), "has no 'metadata' array"),
+        (lambda p: write_npz(p, q=np.zeros((4, 5, 4, 5, 4)), metadata=np.array("{nope")),
+         "metadata is not valid JSON"),
+        (lambda p: write_npz(p, q=np.zeros((4, 5, 4, 5, 4)), metadata=np.zeros(2)),
+         "metadata is not a JSON string"),
+        (lambda p: write_npz(p, q=np.zeros((4, 5, 4, 5, 4)), metadata=good_metadata(
+            grid_rows="4")), "metadata 'grid_rows' has the wrong type"),
+        (lambda p: write_npz(p, q=np.zeros((4, 5, 4, 5, 4)), metadata=good_metadata(
+            format="other")), "not a warehouse_phys.qtable file"),
+        (lambda p: write_npz(p, q=np.zeros((4, 5, 4, 5, 4)), metadata=good_metadata(
+            format_version=9)), "format version 9 is not supported"),
+        (lambda p: write_npz(p, q=np.zeros((3, 3, 3, 3, 4)), metadata=good_metadata()),
+         r"table shape \(3, 3, 3, 3, 4\) does not match its 4x5 grid"),
+        (lambda p: write_npz(p, q=np.full((4, 5, 4, 5, 4), np.inf), metadata=good_metadata()),
+         "NaN or infinite values"),
+        (lambda p: write_npz(p, q=np.zeros((4, 5, 4, 5, 4), dtype="U1"), metadata=good_metadata()),
+         "expected numbers"),
+    ],
+)  # fmt: skip
+def test_unusable_files_are_refused_with_the_reason(tmp_path, make, message):
+    path = tmp_path / "table.npz"
+    make(path)
+    with pytest.raises(QTableError, match=message) as caught:
+        load_q_table(path)
+    assert str(path) in str(caught.value)
+
+
+def test_a_truncated_table_is_refused(tmp_path, trained):
+    env, result = trained
+    path = save_q_table(tmp_path / "q.npz", result.q, table_metadata(env, result.config))
+    data = path.read_bytes()
+    for cut in (len(data) // 2, len(data) - 30, 40):
+        path.write_bytes(data[:cut])
+        with pytest.raises(QTableError, match="truncated or corrupt"):
+            load_q_table(path)
+
+
+def test_a_table_for_one_grid_is_refused_for_another(tmp_path, trained):
+    env, result = trained
+    path = save_q_table(tmp_path / "q.npz", result.q, table_metadata(env, result.config))
+    assert load_q_table(path, rows=4, cols=5)[0].shape == (4, 5, 4, 5, 4)
+    with pytest.raises(QTableError, match="the table is for a 4x5 grid, not 3x3"):
+        load_q_table(path, rows=3, cols=3)

@@ -1,0 +1,226 @@
+"""``python -m warehouse_phys.train`` as users run it: real subprocesses, files, exit codes."""
+
+import json
+import re
+import subprocess
+import sys
+import time
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import warehouse_phys
+from warehouse_phys import train as train_cli
+from warehouse_phys.qlearning import load_q_table
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def run_cli(*args, cwd):
+    return subprocess.run(
+        [sys.executable, "-m", "warehouse_phys.train", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+    )
+
+
+def assert_run_folder(folder, env_id, grid=(4, 5), episodes=1000):
+    names = sorted(p.name for p in folder.iterdir())
+    assert names == ["learning_curve.png", "qtable.npz", "summary.json"]
+    assert (folder / "learning_curve.png").read_bytes()[:8] == PNG_MAGIC
+    q, metadata = load_q_table(folder / "qtable.npz")
+    assert q.shape == (*grid, *grid, 4)
+    assert (metadata["env_id"], metadata["grid_rows"], metadata["grid_cols"]) == (env_id, *grid)
+    assert metadata["episodes"] == episodes
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["env_id"] == env_id
+    assert summary["grid"] == list(grid)
+    assert summary["config"]["episodes"] == episodes
+    assert summary["training"]["episodes"] == episodes
+    assert summary["training"]["reached_target"] + summary["training"]["truncated"] == episodes
+    return q, summary
+
+
+# -------------------------------------------------------------- the main job
+@pytest.mark.slow
+def test_no_arguments_trains_the_physics_environment_and_proves_the_policy(tmp_path):
+    result = run_cli(cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr == ""  # no progress bar when stderr is not a terminal
+    (folder,) = (tmp_path / "runs").iterdir()
+    assert folder.name.startswith("phys-seed0-")
+    _, summary = assert_run_folder(folder, warehouse_phys.PHYSICS_ENV_ID)
+    assert summary["evaluation"]["all_optimal"] is True
+    assert summary["evaluation"]["targets"] == 12
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("trained 1000 episodes on warehouse-robot-phys-v0 (4x5)")
+    assert lines[1].split() == ["target", "steps", "optimal", "result"]
+    assert sum(line.endswith("shortest path") for line in lines) == 13
+    assert "all 12 targets reached by a shortest path" in lines
+
+
+@pytest.mark.slow
+def test_full_default_run_on_the_grid_twin(tmp_path):
+    result = run_cli("--env", "grid", "--out", "my-run", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    _, summary = assert_run_folder(tmp_path / "my-run", warehouse_phys.GRID_ENV_ID)
+    evaluation = summary["evaluation"]
+    assert evaluation["all_optimal"] is True
+    for entry in evaluation["results"]:
+        assert entry["steps"] == entry["optimal_steps"] == sum(entry["target"])
+    # The saved table evaluates the same when loaded back.
+    again = run_cli("--eval", "my-run/qtable.npz", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert "all 12 targets reached by a shortest path" in again.stdout.splitlines()
+    assert again.stdout.splitlines()[0].startswith(
+        "evaluating my-run/qtable.npz (warehouse-robot-v0"
+    )
+
+
+def test_small_physics_run_writes_everything_and_evaluates(tmp_path):
+    result = run_cli(
+        "--env", "phys", "--rows", "3", "--cols", "3", "--episodes", "300", "--seed", "4",
+        "--alpha", "0.8", "--gamma", "0.95", "--out", "out", cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    _, summary = assert_run_folder(
+        tmp_path / "out", warehouse_phys.PHYSICS_ENV_ID, grid=(3, 3), episodes=300
+    )
+    assert summary["config"] == {"episodes": 300, "alpha": 0.8, "gamma": 0.95, "seed": 4}
+    assert summary["evaluation"]["targets"] == 4
+    assert summary["evaluation"]["all_optimal"] is True
+
+
+def test_quiet_prints_nothing(tmp_path):
+    result = run_cli("--env", "grid", "--episodes", "50", "--quiet", "--out", "o", cwd=tmp_path)
+    assert (result.returncode, result.stdout, result.stderr) == (0, "", "")
+    assert (tmp_path / "o" / "qtable.npz").exists()
+
+
+def test_default_run_folders_do_not_collide(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    noon = time.strptime("2026-01-01 12:00:00", "%Y-%m-%d %H:%M:%S")
+    monkeypatch.setattr(train_cli.time, "localtime", lambda *_: noon)  # two runs, same second
+    for _ in range(2):
+        assert train_cli.main(["--env", "grid", "--episodes", "20", "--quiet"]) == 0
+    names = sorted(p.name for p in (tmp_path / "runs").iterdir())
+    assert names == ["grid-seed0-20260101-120000", "grid-seed0-20260101-120000-2"]
+
+
+# ------------------------------------------------------------------ --eval
+def test_eval_uses_the_tables_grid_and_refuses_another(tmp_path):
+    assert train_cli.main(
+        ["--env", "grid", "--rows", "3", "--cols", "4", "--episodes", "400", "--quiet",
+         "--out", str(tmp_path / "run")]
+    ) == 0  # fmt: skip
+    table = tmp_path / "run" / "qtable.npz"
+    ok = run_cli("--eval", str(table), cwd=tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    assert "(warehouse-robot-v0, 3x4, 400 episodes, seed 0)" in ok.stdout
+    assert "all 6 targets reached by a shortest path" in ok.stdout
+    # The same table drives the physics-backed robot just as well.
+    phys = run_cli("--eval", str(table), "--env", "phys", cwd=tmp_path)
+    assert phys.returncode == 0, phys.stderr
+    assert "on warehouse-robot-phys-v0" in phys.stdout
+    assert "all 6 targets reached by a shortest path" in phys.stdout
+    wrong = run_cli("--eval", str(table), "--rows", "4", "--cols", "5", cwd=tmp_path)
+    assert wrong.returncode == 2
+    assert wrong.stderr.splitlines() == [
+        f"python -m warehouse_phys.train: error: --eval: {table} holds a table for a "
+        "3x4 grid, not 4x5"
+    ]
+
+
+# --------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--episodes", "0"], "argument --episodes: expected a positive number of episodes, got 0"),
+        (["--episodes", "-3"], "expected a positive number of episodes, got -3"),
+        (["--episodes", "many"], "expected a positive number of episodes, got 'many'"),
+        (["--rows", "1"], "argument --rows: expected at least 2 rows, got 1"),
+        (["--cols", "0"], "argument --cols: expected at least 2 columns, got 0"),
+        (["--alpha", "0"], r"argument --alpha: expected a number in \(0, 1\], got 0"),
+        (["--alpha", "1.5"], r"expected a number in \(0, 1\], got 1.5"),
+        (["--gamma", "-0.1"], r"argument --gamma: expected a number in \[0, 1\], got -0.1"),
+        (["--seed", "-1"], "argument --seed: expected a non-negative integer seed, got -1"),
+        (["--env", "mujoco"], "argument --env: invalid choice: 'mujoco'"),
+        (["--eval", "missing.npz"], "--eval: missing.npz: no such file"),
+        (["--eval", "notes.txt"], "--eval: notes.txt: not an .npz archive"),
+        (["--out", "notes.txt"], "--out notes.txt exists and is not a folder"),
+        (["--frobnicate"], "unrecognized arguments: --frobnicate"),
+    ],
+)
+def test_bad_arguments_exit_2_with_one_line_and_write_nothing(tmp_path, monkeypatch, capsys,
+                                                              args, message):  # fmt: skip
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("not a table\n")
+    assert train_cli.main(args) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("python -m warehouse_phys.train: error: ")
+    assert re.search(message, lines[0]), lines[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_bad_arguments_from_a_real_shell_give_no_traceback(tmp_path):
+    result = run_cli("--episodes", "0", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stdout == ""
+    assert result.stderr == (
+        "python -m warehouse_phys.train: error: argument --episodes: "
+        "expected a positive number of episodes, got 0\n"
+    )
+    corrupt = tmp_path / "q.npz"
+    corrupt.write_bytes(b"PK\x03\x04" + b"\x00" * 40)
+    result = run_cli("--eval", "q.npz", cwd=tmp_path)
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert result.stderr.startswith("python -m warehouse_phys.train: error: --eval: q.npz: ")
+    assert len(result.stderr.splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["q.npz"]
+
+
+def test_help_lists_every_option(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        train_cli.main(["--help"])
+    assert exit_info.value.code == 0
+    text = capsys.readouterr().out
+    for option in ("--env", "--episodes", "--seed", "--rows", "--cols", "--alpha", "--gamma",
+                   "--out", "--render", "--eval", "--quiet"):  # fmt: skip
+        assert option in text
+
+
+# ------------------------------------------------------------------ --render
+def test_render_watches_one_greedy_episode_in_a_window(tmp_path, monkeypatch):
+    made = []
+    real_make = gym.make
+
+    def recording_make(*args, **kwargs):
+        env = real_make(*args, **kwargs)
+        made.append((kwargs.get("render_mode"), env))
+        return env
+
+    monkeypatch.setattr(train_cli.gym, "make", recording_make)
+    steps = []
+    real_step = warehouse_phys.WarehouseEnvBase.step
+
+    def recording_step(self, action):
+        result = real_step(self, action)
+        if self.render_mode == "human":
+            steps.append(result)
+        return result
+
+    monkeypatch.setattr(warehouse_phys.WarehouseEnvBase, "step", recording_step)
+    args = ["--env", "phys", "--rows", "3", "--cols", "3", "--episodes", "300", "--quiet",
+            "--render", "--out", str(tmp_path / "run")]  # fmt: skip
+    assert train_cli.main(args) == 0
+    assert [mode for mode, _ in made] == [None, "human"]
+    # The greedy episode walked straight to the target and ended there.
+    assert steps[-1][2] is True
+    assert len(steps) == steps[0][4]["optimal_steps"] + 1
+    assert np.isclose(steps[-1][1], 1.0)

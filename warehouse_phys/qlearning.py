@@ -1,0 +1,476 @@
+"""Tabular Q-learning for the warehouse environments: train, evaluate, save, load.
+
+The Q-table has shape ``(R, C, R, C, 4)`` and is indexed by the observation
+``[robot_row, robot_col, target_row, target_col]`` plus the action. Training is
+the classic warehouse-robot tutorial's algorithm, made reproducible: an
+epsilon-greedy policy whose random draws all come from one seeded
+``numpy.random.Generator``, the update
+``Q[s, a] += alpha * (r + gamma * max_a' Q[s', a'] - Q[s, a])`` without
+bootstrapping from a terminal state, and an epsilon that starts at 1 and falls
+linearly by ``1 / episodes`` after each episode, down to 0.
+
+Everything here takes a Gymnasium environment made by the caller, so the same
+functions serve the command line (``python -m warehouse_phys.train``), the
+notebooks and any script::
+
+    env = gym.make("warehouse-robot-phys-v0")
+    result = train(env, QLearningConfig(episodes=1000, seed=0))
+    print(evaluate(env, result.q).table())
+    save_q_table("qtable.npz", result.q, table_metadata(env, result.config))
+
+Tables are saved as ``.npz`` archives holding only numbers and a JSON string,
+written atomically, and loaded with ``allow_pickle=False`` and strict checks, so
+loading a file can never run code.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+import zlib
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from warehouse_phys.atomic import atomic_write
+from warehouse_phys.grid import Cell
+
+#: Identifies our archives; bumped if their layout ever changes.
+TABLE_FORMAT = "warehouse_phys.qtable"
+TABLE_FORMAT_VERSION = 1
+#: The metadata every saved table carries, and the type of each entry.
+_METADATA_FIELDS: dict[str, type | tuple[type, ...]] = {
+    "format": str,
+    "format_version": int,
+    "env_id": str,
+    "grid_rows": int,
+    "grid_cols": int,
+    "episodes": int,
+    "alpha": (int, float),
+    "gamma": (int, float),
+    "seed": int,
+    "package_version": str,
+}
+
+
+class QTableError(ValueError):
+    """A Q-table file that cannot be used; the message names the file and the problem."""
+
+
+@dataclass(frozen=True)
+class QLearningConfig:
+    """The hyper-parameters of a training run; the defaults are the tutorial's.
+
+    Raises:
+        TypeError: if a field has the wrong type.
+        ValueError: if a value is out of range; the message names it.
+    """
+
+    #: Number of training episodes.
+    episodes: int = 1000
+    #: Learning rate, in (0, 1].
+    alpha: float = 0.9
+    #: Discount factor, in [0, 1].
+    gamma: float = 0.9
+    #: Seed of the first ``reset`` and of the agent's own random generator.
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("episodes", "seed"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise TypeError(f"{name} must be an integer, got {value!r}")
+        for name in ("alpha", "gamma"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
+                raise TypeError(f"{name} must be a number, got {value!r}")
+        if self.episodes < 1:
+            raise ValueError(f"episodes must be at least 1, got {self.episodes}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be non-negative, got {self.seed}")
+        if not 0 < self.alpha <= 1:
+            raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
+        if not 0 <= self.gamma <= 1:
+            raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
+
+    def epsilon(self, episode: int) -> float:
+        """Exploration rate of the 0-based ``episode``: ``1 - episode / episodes``, at least 0."""
+        return max(1.0 - episode / self.episodes, 0.0)
+
+
+@dataclass(frozen=True)
+class TrainingResult:
+    """The learnt table and one entry per episode in each record array."""
+
+    q: np.ndarray
+    config: QLearningConfig
+    #: Actions taken in each episode.
+    steps: np.ndarray
+    #: Sum of rewards of each episode.
+    returns: np.ndarray
+    #: Whether each episode ended on the target (``terminated``).
+    reached_target: np.ndarray
+    #: Whether each episode was cut by the time limit before reaching the target.
+    truncated: np.ndarray
+    #: The exploration rate each episode was played with.
+    epsilon: np.ndarray
+
+
+def new_q_table(rows: int, cols: int) -> np.ndarray:
+    """An all-zero float64 Q-table for a ``rows`` x ``cols`` floor: shape ``(R, C, R, C, 4)``."""
+    return np.zeros((rows, cols, rows, cols, 4), dtype=np.float64)
+
+
+def agent_rng(seed: int) -> np.random.Generator:
+    """The agent's random generator for ``seed``.
+
+    Its stream differs from the one ``env.reset(seed=seed)`` gives the
+    environment, so exploration and target placement are not correlated.
+    """
+    return np.random.default_rng([seed, 1])
+
+
+def train(
+    env: gym.Env,
+    config: QLearningConfig | None = None,
+    *,
+    on_episode: Callable[[int], None] | None = None,
+) -> TrainingResult:
+    """Train a Q-table on ``env`` with epsilon-greedy Q-learning.
+
+    The first episode starts with ``env.reset(seed=config.seed)``, later ones
+    with ``env.reset()``; an episode ends when the environment terminates or
+    truncates it (``gym.make`` adds the time limit). ``on_episode(i)``, if
+    given, is called after episode ``i`` (to drive a progress bar, say).
+
+    Raises:
+        ValueError: if ``env`` is not a warehouse environment with a 4-integer
+            observation and 4 actions.
+    """
+    config = config or QLearningConfig()
+    rows, cols = _grid_size(env)
+    q = new_q_table(rows, cols)
+    rng = agent_rng(config.seed)
+    alpha, gamma, n_actions = config.alpha, config.gamma, q.shape[-1]
+    episodes = config.episodes
+    steps = np.zeros(episodes, dtype=np.int64)
+    returns = np.zeros(episodes, dtype=np.float64)
+    reached = np.zeros(episodes, dtype=bool)
+    truncated_episodes = np.zeros(episodes, dtype=bool)
+    epsilons = np.array([config.epsilon(i) for i in range(episodes)])
+
+    for episode in range(episodes):
+        obs, _ = env.reset(seed=config.seed) if episode == 0 else env.reset()
+        state = tuple(obs.tolist())
+        epsilon = epsilons[episode]
+        n_steps, total = 0, 0.0
+        while True:
+            values = q[state]
+            if rng.random() < epsilon:
+                action = int(rng.integers(n_actions))
+            else:
+                action = int(values.argmax())
+            obs, reward, terminated, truncated, _ = env.step(action)
+            next_state = tuple(obs.tolist())
+            if terminated:
+                td_target = reward
+            else:
+                next_values = q[next_state]
+                td_target = reward + gamma * next_values[next_values.argmax()]
+            values[action] += alpha * (td_target - values[action])
+            n_steps += 1
+            total += reward
+            if terminated or truncated:
+                break
+            state = next_state
+        steps[episode] = n_steps
+        returns[episode] = total
+        reached[episode] = terminated
+        truncated_episodes[episode] = truncated and not terminated
+        if on_episode is not None:
+            on_episode(episode)
+
+    return TrainingResult(
+        q=q,
+        config=config,
+        steps=steps,
+        returns=returns,
+        reached_target=reached,
+        truncated=truncated_episodes,
+        epsilon=epsilons,
+    )
+
+
+def greedy_action(q: np.ndarray, obs: Sequence[int] | np.ndarray) -> int:
+    """The greedy action for observation ``obs``: the first of the best-valued actions."""
+    return int(q[tuple(int(v) for v in obs)].argmax())
+
+
+# ------------------------------------------------------------------ evaluation
+@dataclass(frozen=True)
+class TargetResult:
+    """How the greedy policy did from the start against one target."""
+
+    target: Cell
+    #: Actions taken to reach the target, or ``None`` if it never got there.
+    steps: int | None
+    #: The fewest actions that reach it.
+    optimal_steps: int
+
+    @property
+    def reached(self) -> bool:
+        return self.steps is not None
+
+    @property
+    def optimal(self) -> bool:
+        return self.steps == self.optimal_steps
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """The greedy policy against every possible target."""
+
+    results: tuple[TargetResult, ...]
+
+    @property
+    def reached(self) -> int:
+        """How many targets the policy reached."""
+        return sum(r.reached for r in self.results)
+
+    @property
+    def optimal(self) -> int:
+        """How many targets it reached by a shortest path."""
+        return sum(r.optimal for r in self.results)
+
+    @property
+    def all_optimal(self) -> bool:
+        """Whether it reached every target by a shortest path."""
+        return self.optimal == len(self.results)
+
+    def summary(self) -> str:
+        """One line: how many of the targets were reached, and how many optimally."""
+        n = len(self.results)
+        if self.all_optimal:
+            return f"all {n} targets reached by a shortest path"
+        return f"{self.reached} of {n} targets reached, {self.optimal} of them by a shortest path"
+
+    def table(self) -> str:
+        """The results as a text table, one target per line, then the summary."""
+        lines = [f"{'target':<10}{'steps':>7}{'optimal':>9}  result"]
+        for r in self.results:
+            if not r.reached:
+                verdict, steps = "not reached", "-"
+            else:
+                verdict = "shortest path" if r.optimal else f"{r.steps - r.optimal_steps} too many"
+                steps = str(r.steps)
+            target = f"({r.target[0]}, {r.target[1]})"
+            lines.append(f"{target:<10}{steps:>7}{r.optimal_steps:>9}  {verdict}")
+        lines.append(self.summary())
+        return "\n".join(lines)
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready summary with one entry per target."""
+        return {
+            "targets": len(self.results),
+            "reached": self.reached,
+            "optimal": self.optimal,
+            "all_optimal": self.all_optimal,
+            "results": [
+                {"target": list(r.target), "steps": r.steps, "optimal_steps": r.optimal_steps}
+                for r in self.results
+            ],
+        }
+
+
+def evaluate(env: gym.Env, q: np.ndarray, *, max_steps: int | None = None) -> Evaluation:
+    """Run the greedy policy of ``q`` from the start against every possible target.
+
+    Each target of ``env.unwrapped.grid.target_cells`` is placed with
+    ``reset(options={"target": ...})``, which draws no random number. An
+    episode stops on the target, at the environment's time limit, or after
+    ``max_steps`` actions (default: the time limit of ``env.spec``, else 4 x
+    the number of cells), whichever comes first.
+
+    Raises:
+        ValueError: if the table's shape does not fit the environment's grid.
+    """
+    rows, cols = _grid_size(env)
+    if q.shape != (rows, cols, rows, cols, 4):
+        raise ValueError(
+            f"Q-table of shape {q.shape} does not fit a {rows}x{cols} grid "
+            f"(expected {(rows, cols, rows, cols, 4)})"
+        )
+    if max_steps is None:
+        spec = getattr(env, "spec", None)
+        max_steps = (spec.max_episode_steps if spec else None) or 4 * rows * cols
+    results = []
+    for target in env.unwrapped.grid.target_cells:
+        obs, info = env.reset(options={"target": target})
+        optimal = int(info["optimal_steps"])
+        steps = None
+        for step in range(1, max_steps + 1):
+            obs, _, terminated, truncated, _ = env.step(greedy_action(q, obs))
+            if terminated:
+                steps = step
+                break
+            if truncated:
+                break
+        results.append(TargetResult(Cell(*target), steps, optimal))
+    return Evaluation(tuple(results))
+
+
+# --------------------------------------------------------------- save and load
+def table_metadata(env: gym.Env, config: QLearningConfig) -> dict[str, Any]:
+    """The metadata saved next to a table trained on ``env`` with ``config``."""
+    from warehouse_phys import __version__
+
+    rows, cols = _grid_size(env)
+    spec = getattr(env, "spec", None)
+    return {
+        "format": TABLE_FORMAT,
+        "format_version": TABLE_FORMAT_VERSION,
+        "env_id": spec.id if spec else type(env.unwrapped).__name__,
+        "grid_rows": rows,
+        "grid_cols": cols,
+        **{k: v for k, v in asdict(config).items() if k in _METADATA_FIELDS},
+        "package_version": __version__,
+    }
+
+
+def save_q_table(path: str | os.PathLike[str], q: np.ndarray, metadata: dict[str, Any]) -> Path:
+    """Save ``q`` and its ``metadata`` (see :func:`table_metadata`) as an ``.npz`` archive.
+
+    The archive holds the table as a float64 array ``"q"`` and the metadata as
+    a JSON string ``"metadata"``: nothing that needs pickle to load. It is
+    written to a temporary file first and moved into place, so a failure leaves
+    no half-written file. Returns the path.
+
+    Raises:
+        QTableError: if the table or the metadata would not load back.
+    """
+    q = np.asarray(q)
+    _check_metadata(metadata, where="metadata")
+    _check_table(q, metadata["grid_rows"], metadata["grid_cols"], where="table")
+    text = json.dumps(metadata, sort_keys=True)
+    return atomic_write(
+        path,
+        lambda file: np.savez_compressed(file, q=q.astype(np.float64), metadata=np.array(text)),
+    )
+
+
+def load_q_table(
+    path: str | os.PathLike[str], *, rows: int | None = None, cols: int | None = None
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Load a table saved by :func:`save_q_table`; returns ``(q, metadata)``.
+
+    With ``rows`` and ``cols``, the table must be for that grid. The file is
+    read with ``allow_pickle=False``: a pickle payload is refused, never run.
+
+    Raises:
+        QTableError: naming the file and what is wrong with it: missing, not an
+            ``.npz`` archive, truncated or corrupt, pickled data or an object
+            array, missing or malformed metadata, a shape that does not match
+            its grid or the requested one, NaN or infinite values.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise QTableError(f"{path}: no such file")
+    if not path.is_file():
+        raise QTableError(f"{path}: not a file")
+    try:
+        with path.open("rb") as file:
+            magic = file.read(4)
+    except OSError as error:
+        raise QTableError(f"{path}: cannot be read ({error.strerror})") from None
+    if magic[:1] == b"\x80":
+        raise QTableError(f"{path}: holds pickled data, which is never loaded; expected an .npz")
+    if magic != b"PK\x03\x04":
+        raise QTableError(f"{path}: not an .npz archive")
+    try:
+        # Our own handle, so that the file is closed even when numpy gives up half way.
+        with path.open("rb") as file, np.load(file, allow_pickle=False) as archive:
+            names = set(archive.files)
+            for name in ("q", "metadata"):
+                if name not in names:
+                    raise QTableError(f"{path}: has no {name!r} array; not a saved Q-table")
+            q = archive["q"]
+            text = archive["metadata"]
+    except QTableError:
+        raise
+    except ValueError as error:
+        if "allow_pickle" in str(error):
+            raise QTableError(
+                f"{path}: holds an object array, which needs pickle and is never loaded"
+            ) from None
+        raise QTableError(f"{path}: truncated or corrupt ({error})") from None
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, KeyError) as error:
+        raise QTableError(f"{path}: truncated or corrupt ({error})") from None
+
+    if text.dtype.kind != "U" or text.shape != ():
+        raise QTableError(f"{path}: metadata is not a JSON string")
+    try:
+        metadata = json.loads(str(text))
+    except json.JSONDecodeError as error:
+        raise QTableError(f"{path}: metadata is not valid JSON ({error})") from None
+    _check_metadata(metadata, where=str(path))
+    _check_table(q, metadata["grid_rows"], metadata["grid_cols"], where=str(path))
+    grid = (metadata["grid_rows"], metadata["grid_cols"])
+    if (rows, cols) != (None, None) and (rows, cols) != grid:
+        raise QTableError(
+            f"{path}: the table is for a {metadata['grid_rows']}x{metadata['grid_cols']} grid, "
+            f"not {rows}x{cols}"
+        )
+    return q.astype(np.float64, copy=False), metadata
+
+
+def _check_metadata(metadata: Any, *, where: str) -> None:
+    error = QTableError
+    if not isinstance(metadata, dict):
+        raise error(f"{where}: metadata must be a JSON object")
+    for name, kind in _METADATA_FIELDS.items():
+        value = metadata.get(name)
+        if value is None:
+            raise error(f"{where}: metadata has no {name!r}")
+        if isinstance(value, bool) or not isinstance(value, kind):
+            raise error(f"{where}: metadata {name!r} has the wrong type: {value!r}")
+    if metadata["format"] != TABLE_FORMAT:
+        raise error(f"{where}: not a {TABLE_FORMAT} file (format {metadata['format']!r})")
+    if metadata["format_version"] != TABLE_FORMAT_VERSION:
+        raise error(
+            f"{where}: format version {metadata['format_version']} is not supported "
+            f"(this version reads {TABLE_FORMAT_VERSION})"
+        )
+    if metadata["grid_rows"] < 2 or metadata["grid_cols"] < 2:
+        raise error(
+            f"{where}: grid {metadata['grid_rows']}x{metadata['grid_cols']} is smaller than 2x2"
+        )
+
+
+def _check_table(q: np.ndarray, rows: int, cols: int, *, where: str) -> None:
+    error = QTableError
+    expected = (rows, cols, rows, cols, 4)
+    if q.dtype.kind not in "fiu":
+        raise error(f"{where}: table has dtype {q.dtype}, expected numbers")
+    if q.shape != expected:
+        raise error(
+            f"{where}: table shape {q.shape} does not match its {rows}x{cols} grid "
+            f"(expected {expected})"
+        )
+    if not np.isfinite(q).all():
+        raise error(f"{where}: table holds NaN or infinite values")
+
+
+def _grid_size(env: gym.Env) -> tuple[int, int]:
+    base = env.unwrapped
+    rows, cols = getattr(base, "grid_rows", None), getattr(base, "grid_cols", None)
+    if rows is None or cols is None or getattr(env.action_space, "n", None) != 4:
+        raise ValueError(
+            f"{type(base).__name__} is not a warehouse environment: Q-learning here needs "
+            "grid_rows, grid_cols and 4 actions"
+        )
+    return rows, cols
