@@ -89,13 +89,23 @@ def test_the_update_rule_on_a_hand_worked_episode():
 
 def test_no_bootstrap_from_a_terminal_state():
     env = gym.make(GRID_ID, grid_rows=2, grid_cols=2)
-    result = train(env, QLearningConfig(episodes=300, alpha=1.0, gamma=0.9, seed=0))
+    # Start from a table of 5s: bootstrapping from the target's state would add 0.9 * 5.
+    start = np.full((2, 2, 2, 2, 4), 5.0)
+    result = train(env, QLearningConfig(episodes=300, alpha=1.0, gamma=0.9, seed=0), q=start)
     # With alpha=1 each value is its last target: stepping onto the target is worth exactly 1.
     assert result.q[0, 1, 1, 1, Action.DOWN] == 1.0
     assert result.q[1, 0, 1, 1, Action.RIGHT] == 1.0
-    # One step further back: gamma times that, never more.
+    # One step further back: gamma times that.
     assert result.q[0, 0, 1, 1, Action.RIGHT] == pytest.approx(0.9)
-    assert result.q.max() == 1.0
+    assert (start == 5.0).all()  # the initial table was copied, not changed
+
+
+def test_training_can_carry_on_from_a_table(trained):
+    env, result = trained
+    more = train(env, QLearningConfig(episodes=5, seed=9), q=result.q)
+    assert evaluate(env, more.q).all_optimal
+    with pytest.raises(ValueError, match="does not match its 3x3 grid"):
+        train(gym.make(GRID_ID, grid_rows=3, grid_cols=3), QLearningConfig(), q=result.q)
 
 
 def test_records_have_one_entry_per_episode(trained):
@@ -110,14 +120,17 @@ def test_records_have_one_entry_per_episode(trained):
 
 
 def test_truncated_episodes_are_counted_as_such():
-    # A 2-step time limit on a 6x6 floor: most targets are out of reach.
-    env = gym.make(GRID_ID, grid_rows=6, grid_cols=6, max_episode_steps=2)
+    # A 2x2 floor (one target, 2 steps away) and a 2-step time limit: an episode either
+    # walks straight there, arriving on the very step the time limit also fires, or is cut.
+    env = gym.make(GRID_ID, grid_rows=2, grid_cols=2, max_episode_steps=2)
     result = train(env, QLearningConfig(episodes=200, seed=1))
+    assert (result.steps == 2).all()
+    assert 20 < result.reached_target.sum() < 200
+    # Arriving on the last allowed step is reaching the target, not a truncation.
+    assert not (result.truncated & result.reached_target).any()
     assert result.truncated.sum() + result.reached_target.sum() == 200
-    assert result.truncated.sum() > 150
-    assert (result.steps[result.truncated] == 2).all()
     assert (result.returns[result.truncated] == 0).all()
-    assert (result.steps[result.reached_target] == 2).all()  # only 2-step targets are reachable
+    assert (result.returns[result.reached_target] == 1).all()
 
 
 def test_training_is_deterministic_and_seeded(trained):

@@ -139,22 +139,29 @@ def train(
     env: gym.Env,
     config: QLearningConfig | None = None,
     *,
+    q: np.ndarray | None = None,
     on_episode: Callable[[int], None] | None = None,
 ) -> TrainingResult:
     """Train a Q-table on ``env`` with epsilon-greedy Q-learning.
 
     The first episode starts with ``env.reset(seed=config.seed)``, later ones
     with ``env.reset()``; an episode ends when the environment terminates or
-    truncates it (``gym.make`` adds the time limit). ``on_episode(i)``, if
-    given, is called after episode ``i`` (to drive a progress bar, say).
+    truncates it (``gym.make`` adds the time limit). Training starts from an
+    all-zero table, or from a copy of ``q`` to carry on from a saved one.
+    ``on_episode(i)``, if given, is called after episode ``i`` (to drive a
+    progress bar, say).
 
     Raises:
         ValueError: if ``env`` is not a warehouse environment with a 4-integer
-            observation and 4 actions.
+            observation and 4 actions, or ``q`` does not fit its grid.
     """
     config = config or QLearningConfig()
     rows, cols = _grid_size(env)
-    q = new_q_table(rows, cols)
+    if q is None:
+        q = new_q_table(rows, cols)
+    else:
+        q = np.array(q, dtype=np.float64)
+        _check_table(q, rows, cols, where="initial table")
     rng = agent_rng(config.seed)
     alpha, gamma, n_actions = config.alpha, config.gamma, q.shape[-1]
     episodes = config.episodes
