@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 import warehouse_phys
 from tests.test_render import robot_centre
 from warehouse_phys import SNAP_ERROR_BOUND, Action, WarehousePhysicsEnv
+from warehouse_phys import envs as envs_module
 from warehouse_phys.physics import PhysicsConfig
 
 GRID_ID = warehouse_phys.GRID_ENV_ID
@@ -87,24 +88,29 @@ def test_gymnasium_finds_the_environments_match(kwargs, render_mode, num_steps):
     check_environments_match(grid, phys, num_steps=num_steps, seed=11, info_comparison="superset")
 
 
-def test_a_controller_too_weak_to_arrive_is_caught_by_the_equivalence_check():
-    grid, phys = gym.make(GRID_ID), gym.make(PHYS_ID)
-    # Swap in, behind the constructor's check, a controller that cannot arrive.
-    phys.unwrapped.physics = dataclasses.replace(phys.unwrapped.physics, max_force=40.0)
+def make_unchecked(monkeypatch, **physics):
+    """The physics-backed environment with settings its constructor would refuse."""
+    monkeypatch.setattr(envs_module, "check_controller", lambda config: None)
+    return gym.make(PHYS_ID, **physics)
+
+
+def test_a_controller_too_weak_to_arrive_is_caught_by_the_equivalence_check(monkeypatch):
+    grid = gym.make(GRID_ID)
+    phys = make_unchecked(monkeypatch, max_force=40.0)  # 2 m/s^2: a few cm in a move
     with pytest.raises(AssertionError, match="stepping observation is not equivalent"):
         check_environments_match(grid, phys, num_steps=50, seed=0, info_comparison="superset")
 
 
-def test_a_controller_that_overshoots_is_caught_by_the_snap_bound():
+def test_a_controller_that_overshoots_is_caught_by_the_snap_bound(monkeypatch):
     # Fast, with too little force to brake: it sails about 0.4 of a cell past each
     # centre. The cells still match the grid twin; the snap bound catches it.
     overshooting = {"max_speed": 17.0, "max_force": 1500.0, "floor_damping": 0.01}
-    grid, phys = gym.make(GRID_ID), gym.make(PHYS_ID)
-    phys.unwrapped.physics = dataclasses.replace(phys.unwrapped.physics, **overshooting)
+    grid, phys = gym.make(GRID_ID), make_unchecked(monkeypatch, **overshooting)
     actions = np.random.default_rng(0).integers(4, size=300).tolist()
     grid_record, phys_record, worst = run_both_envs(grid, phys, actions)
     assert phys_record == grid_record
     assert worst > 0.3
+    monkeypatch.undo()
     with pytest.raises(ValueError, match=r"not within the bound of 0\.02"):
         gym.make(PHYS_ID, **overshooting)
 

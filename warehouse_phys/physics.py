@@ -1,13 +1,14 @@
 """The pymunk world: floor, walls, robot body, move controller and the fixed physics clock.
 
-The robot is a dynamic circle with real mass and moment on a frictionless
-top-down floor bounded by static walls. It is never teleported during a move:
-a kinematic *control body* is placed on the centre the robot should reach, and
-a pivot joint between the two pulls the robot there with a capped force and a
-capped speed (pymunk's recommended way to drive a body; see the ``tank.py``
-example). The joint is the controller; its gains are :class:`PhysicsConfig`
-fields, and the loop that runs a move does no per-step Python work beyond
-``Space.step``.
+The robot is a dynamic circle with real mass and moment on a top-down floor
+(no gravity; the floor's drag is the space's damping) bounded by static walls.
+It is never teleported during a move: a kinematic *control body* is placed on
+the centre the robot should reach, and a pivot joint between the two pulls the
+robot there with a capped force and a capped speed (pymunk's recommended way to
+drive a body; see its ``tank.py`` example). The joint is the controller; its
+gains are :class:`PhysicsConfig` fields, and the loop that runs a move does no
+per-step Python work beyond stepping the space (and recording the body's
+position, when asked).
 
 One move is a fixed number of steps of a constant ``dt`` in two phases:
 
@@ -62,7 +63,7 @@ WALL_FRICTION = 0.6
 class PhysicsConfig:
     """The physical parameters of the robot, its controller and the physics clock.
 
-    The defaults describe a 40 kg robot of 0.3 m radius on 1 m cells that
+    The defaults describe a 20 kg robot of 0.3 m radius on 1 m cells that
     crosses one cell in a quarter of a second: 15 steps of 1/60 s per move,
     one rendered frame per physics step at 60 fps.
 
@@ -167,8 +168,8 @@ class PhysicsWorld:
         config: the physical parameters.
         start: the cell the robot starts on, at rest.
         record_path: whether :meth:`move` records the body's position after
-            every physics step (see :attr:`last_path`). It costs about a third
-            of a move's time, so training leaves it off.
+            every physics step (see :attr:`last_path`). It makes a move about
+            40 % slower, so training leaves it off.
     """
 
     def __init__(
