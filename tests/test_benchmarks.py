@@ -1,5 +1,6 @@
-"""The benchmark scripts run and report every figure (smoke tests with tiny budgets; no timing)."""
+"""The benchmark runs and reports every figure (a smoke test with tiny budgets; no timing)."""
 
+import json
 import re
 import subprocess
 import sys
@@ -10,39 +11,44 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def run_benchmark(name, *args):
-    result = subprocess.run(
-        [sys.executable, f"benchmarks/{name}", *args], cwd=ROOT, capture_output=True, text=True
+def run_bench(*args):
+    return subprocess.run(
+        [sys.executable, "benchmarks/bench.py", *args], cwd=ROOT, capture_output=True, text=True
     )
-    assert result.returncode == 0, result.stderr
-    return result.stdout.splitlines()
 
 
 @pytest.mark.slow
-def test_throughput_reports_each_environment_against_frozen_lake():
-    lines = run_benchmark("throughput.py", "--actions", "300", "--repeats", "1")
+def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
+    result = run_bench("--quick", "--json", str(tmp_path / "results.json"))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+
+    def row(name):
+        (line,) = [line for line in lines if line.strip().startswith(name)]
+        return line
+
     for env_id in ("FrozenLake-v1", "warehouse-robot-v0", "warehouse-robot-phys-v0"):
         for how in ("gym.make", "unwrapped"):
-            (row,) = [line for line in lines if line.startswith(f"{env_id} ({how})")]
-            assert re.search(r"[\d,]+\s+\d+\.\d\dx$", row), row
-    assert any(re.match(r"FrozenLake-v1 \(gym.make\)\s+[\d,]+\s+1\.00x$", line) for line in lines)
+            assert re.search(r"steps/s\s+\d+\.\d\dx", row(f"{env_id} ({how})"))
+        assert re.search(r"frames/s\s+\d+\.\d\dx", row(f"{env_id} rgb_array"))
+    assert re.search(r"1\.00x\s*$", row("FrozenLake-v1 (gym.make)"))
+    assert re.search(r">= 1\.3x: (met|MISSED)$", row("warehouse-robot-v0 (gym.make)"))
+    assert re.search(r">= 0\.15x: (met|MISSED)$", row("warehouse-robot-phys-v0 (gym.make)"))
+    assert re.search(r" s\s+\d+\.\d\dx", row("trainer on warehouse-robot-phys-v0"))
+    assert re.search(r"\b15 steps", row("physics steps per action"))
+    for name in ("physics step (move loop)", "physics step (Space.step)", "one move", "one reset"):
+        assert " us " in row(name)
+
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert results["machine"]["cpu_count"] >= 1
+    figures = [f for section in results["sections"].values() for f in section]
+    assert len(figures) == 6 + 3 + 3 + 5
+    for figure in figures:
+        assert figure["value"] > 0
+        assert len(figure["runs"]) == results["repeats"] == 1
 
 
-@pytest.mark.slow
-def test_training_benchmark_reports_both_environments_against_the_tutorial():
-    lines = run_benchmark("training.py", "--episodes", "30", "--repeats", "1")
-    assert re.match(r"tutorial loop, grid twin \(reference\)\s+\d+\.\d{3}\s+1\.00x$", lines[1])
-    assert lines[2].startswith("trainer, warehouse-robot-v0 ")
-    assert lines[3].startswith("trainer, warehouse-robot-phys-v0 ")
-
-
-@pytest.mark.parametrize("name", ["throughput.py", "training.py"])
-def test_benchmarks_refuse_empty_budgets(name):
-    result = subprocess.run(
-        [sys.executable, f"benchmarks/{name}", "--repeats", "0"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-    )
+def test_benchmark_refuses_an_empty_budget():
+    result = run_bench("--repeats", "0")
     assert result.returncode == 2
-    assert "must be at least 1" in result.stderr
+    assert "--repeats must be at least 1" in result.stderr
