@@ -137,10 +137,41 @@ def draw_robot() -> None:
     finish(canvas, "robot.png")
 
 
+def draw_shelf() -> None:
+    """A steel pallet rack seen from above: blue uprights and beams, slatted deck, two totes.
+
+    No orange anywhere: the tests find the robot by its orange chassis.
+    """
+    canvas = pygame.Surface((S, S), pygame.SRCALPHA)
+    frame = rect(0.04, 0.04, 0.92, 0.92)
+    shadow(canvas, frame.move(px(0.02), px(0.03)), px(0.02), 160)
+    pygame.draw.rect(canvas, (88, 94, 102, 255), frame, border_radius=px(0.02))  # deck
+    for i in range(7):  # deck slats
+        y = frame.top + px(0.07) + i * px(0.12)
+        pygame.draw.rect(canvas, (112, 119, 128, 255), (frame.left, y, frame.width, px(0.07)))
+    beam = (38, 84, 160, 255)
+    pygame.draw.rect(canvas, beam, rect(0.04, 0.04, 0.92, 0.07))  # front beam
+    pygame.draw.rect(canvas, beam, rect(0.04, 0.89, 0.92, 0.07))  # back beam
+    for x in (0.04, 0.89):  # uprights at the corners
+        for y in (0.04, 0.89):
+            pygame.draw.rect(canvas, (24, 52, 108, 255), rect(x, y, 0.07, 0.07))
+    # Two plastic totes and a lid seen from above.
+    for x, y, colour in ((0.14, 0.17, (60, 130, 110, 255)), (0.52, 0.50, (70, 110, 170, 255))):
+        tote = rect(x, y, 0.34, 0.32)
+        shadow(canvas, tote.move(px(0.015), px(0.02)), px(0.02), 120)
+        pygame.draw.rect(canvas, colour, tote, border_radius=px(0.02))
+        dark = (*(max(0, v - 40) for v in colour[:3]), 255)
+        pygame.draw.rect(canvas, dark, tote, width=px(0.016), border_radius=px(0.02))
+        pygame.draw.rect(canvas, dark, tote.inflate(-px(0.14), -px(0.2)), border_radius=px(0.01))
+    pygame.draw.rect(canvas, (20, 22, 26, 255), frame, width=px(0.012), border_radius=px(0.02))
+    finish(canvas, "shelf.png")
+
+
 def main() -> None:
     draw_floor()
     draw_package()
     draw_robot()
+    draw_shelf()
 
 
 if __name__ == "__main__":

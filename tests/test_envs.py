@@ -180,7 +180,16 @@ def test_reset_with_target_option_draws_no_random_number(env_cls):
 
 
 # ---------------------------------------------------------- gymnasium contract
-@pytest.mark.parametrize("kwargs", [{}, {"grid_rows": 2, "grid_cols": 2}, {"grid_rows": 7}])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {},
+        {"grid_rows": 2, "grid_cols": 2},
+        {"grid_rows": 7},
+        {"layout": "maze"},
+        {"layout": ["SP"]},
+    ],
+)
 def test_check_env_passes_with_warnings_as_errors(kwargs, env_id):
     env = gym.make(env_id, **kwargs)
     with warnings.catch_warnings():
@@ -370,3 +379,68 @@ def test_stepping_after_termination_follows_the_same_rules(env_cls):
     assert env.step(Action.LEFT)[1:3] == (1.0, True)
     obs, reward, terminated, _, _ = env.step(Action.DOWN)
     assert (obs[:2].tolist(), reward, terminated) == ([2, 1], 0.0, False)
+
+
+# -------------------------------------------------------------------- layouts
+ROOM = ["S.#", "..#", ".P."]  # a shelf column; the package beyond it, round the bottom
+
+
+def test_a_layout_sets_the_floor_start_targets_and_distances(env_id):
+    env = gym.make(env_id, layout=ROOM)
+    assert env.observation_space == gym.spaces.MultiDiscrete([3, 3, 3, 3])
+    assert env.unwrapped.grid.shelves == {(0, 2), (1, 2)}
+    obs, info = env.reset(seed=0)
+    assert obs.tolist() == [0, 0, 2, 1]  # the only package cell
+    assert info["optimal_steps"] == 3
+    obs, _, _, _, info = env.step(Action.RIGHT)
+    assert (obs[:2].tolist(), info["optimal_steps"]) == ([0, 1], 2)
+
+
+def test_moving_into_a_shelf_stays_put_and_counts(env_id):
+    env = gym.make(env_id, layout=ROOM, max_episode_steps=3)
+    env.reset(options={"start": (1, 1), "target": (2, 1)})
+    for _ in range(2):
+        obs, reward, terminated, truncated, info = env.step(Action.RIGHT)  # (1, 2) is a shelf
+        assert (obs[:2].tolist(), reward, terminated, truncated) == ([1, 1], 0.0, False, False)
+        assert info["optimal_steps"] == 1
+    assert env.step(Action.RIGHT)[3] is True
+
+
+def test_the_ansi_picture_shows_shelves():
+    env = gym.make(ENV_ID, layout=ROOM, render_mode="ansi")
+    env.reset(seed=0)
+    assert env.render() == "R _ # \n_ _ # \n_ T _ \n"
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"layout": "office"}, "unknown layout preset 'office'"),
+        ({"layout": ["S..", ".."]}, "row 1 has 2 cells, row 0 has 3"),
+        ({"layout": ["S.x"]}, "unknown layout symbol 'x' at row 0, column 2"),
+        ({"layout": "maze", "grid_rows": 4}, "grid_rows=4 contradicts the layout, which has 5"),
+        ({"layout": ["S#", "#P"]}, r"package cells \[\(1, 1\)\] cannot be reached"),
+    ],
+)
+def test_invalid_layouts_are_refused_through_make(env_id, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        gym.make(env_id, **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"start": (0, 2)}, r"options\['start'\] \(0, 2\) is a shelf"),
+        ({"target": (0, 1)}, r"not a cell the target may occupy \(see grid.target_cells\)"),
+    ],
+)
+def test_reset_options_respect_the_layout(env_id, options, message):
+    env = gym.make(env_id, layout=ROOM)
+    with pytest.raises(ValueError, match=message):
+        env.reset(options=options)
+
+
+def test_a_start_option_in_a_walled_off_room_is_refused(env_id):
+    env = gym.make(env_id, layout=["S.#.", "..#.", "###."])
+    with pytest.raises(ValueError, match=r"\(0, 3\) cannot be reached from the layout's start"):
+        env.reset(options={"start": (0, 3)})

@@ -19,6 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import warehouse_phys
+from tests.test_grid import layouts
 from tests.test_render import robot_centre
 from warehouse_phys import SNAP_ERROR_BOUND, Action, WarehousePhysicsEnv
 from warehouse_phys import envs as envs_module
@@ -72,6 +73,18 @@ def test_both_worlds_give_identical_trajectories(rows, cols, seed, actions, max_
     assert worst < SNAP_ERROR_BOUND
 
 
+@settings(max_examples=40)
+@given(
+    layout=layouts(),
+    seed=st.integers(0, 2**32 - 1),
+    actions=st.lists(st.sampled_from(list(Action)), min_size=1, max_size=120),
+)
+def test_both_worlds_agree_around_shelves(layout, seed, actions):
+    grid, phys, worst = run_both(actions, seed, 40, layout=layout)
+    assert phys == grid
+    assert worst < SNAP_ERROR_BOUND
+
+
 @pytest.mark.parametrize(
     ("kwargs", "render_mode", "num_steps"),
     [
@@ -79,6 +92,9 @@ def test_both_worlds_give_identical_trajectories(rows, cols, seed, actions, max_
         ({"grid_rows": 2, "grid_cols": 2}, None, 2000),
         ({"grid_rows": 8, "grid_cols": 8}, None, 2000),
         ({"grid_rows": 3, "grid_cols": 7}, "ansi", 2000),
+        ({"layout": "aisles"}, "rgb_array", 300),
+        ({"layout": "depot"}, None, 3000),
+        ({"layout": "maze"}, "ansi", 3000),
     ],
 )
 def test_gymnasium_finds_the_environments_match(kwargs, render_mode, num_steps):
@@ -141,20 +157,30 @@ def resident_memory_bytes() -> int:
     return int(Path("/proc/self/statm").read_text().split()[1]) * 4096
 
 
+LONG_RUNS = {
+    # 100,000 actions over thousands of episodes on an empty 5 x 6 floor...
+    "empty": (100_000, {"grid_rows": 5, "grid_cols": 6}, 2000),
+    # ... and 30,000 around the shelves of each preset.
+    **{name: (30_000, {"layout": name}, 400) for name in warehouse_phys.PRESETS},
+}
+
+
 @pytest.mark.slow
-def test_long_run_stays_on_the_floor_bounded_and_equal_to_the_grid_twin():
-    """100,000 random actions over thousands of episodes, checked after every physics step."""
-    n_actions = 100_000
+@pytest.mark.parametrize("floor", list(LONG_RUNS))
+def test_long_run_stays_on_the_floor_bounded_and_equal_to_the_grid_twin(floor):
+    """Random actions over many episodes, checked after every physics step."""
+    n_actions, kwargs, min_episodes = LONG_RUNS[floor]
     rng = np.random.default_rng(2024)
     actions = rng.integers(4, size=n_actions).tolist()
-    grid = gym.make(GRID_ID, grid_rows=5, grid_cols=6, max_episode_steps=60)
-    phys = gym.make(PHYS_ID, grid_rows=5, grid_cols=6, max_episode_steps=60, record_path=True)
+    grid = gym.make(GRID_ID, max_episode_steps=60, **kwargs)
+    phys = gym.make(PHYS_ID, max_episode_steps=60, record_path=True, **kwargs)
     unwrapped = phys.unwrapped
+    shelves = unwrapped.grid.shelves
     radius = unwrapped.physics.robot_radius / unwrapped.physics.cell_size
     # The body's centre stays inside the walls, less its radius and one step of overlap.
     overlap = unwrapped.physics.max_speed * unwrapped.physics.dt / unwrapped.physics.cell_size
     low = -0.5 + radius - overlap
-    high = np.array([5, 6]) - 0.5 - radius + overlap
+    high = np.array([unwrapped.grid_rows, unwrapped.grid_cols]) - 0.5 - radius + overlap
     grid.reset(seed=5)
     phys.reset(seed=5)
     episodes, worst, memory_after_warmup = 0, 0.0, None
@@ -169,13 +195,16 @@ def test_long_run_stays_on_the_floor_bounded_and_equal_to_the_grid_twin():
         path = unwrapped.last_move_path
         lowest = np.minimum(lowest, path.min(axis=0))
         highest = np.maximum(highest, path.max(axis=0))
+        if shelves:  # the body's centre never gets inside a shelf's cell
+            cells = {(int(r), int(c)) for r, c in np.floor(path + 0.5)}
+            assert not cells & shelves, (i, cells & shelves)
         if g_term or g_trunc:
             episodes += 1
             assert np.array_equal(grid.reset()[0], phys.reset()[0])
-            if episodes == 200:
+            if episodes == min_episodes // 10:
                 gc.collect()
                 memory_after_warmup = resident_memory_bytes()
-    assert episodes > 2000
+    assert episodes > min_episodes
     assert worst < SNAP_ERROR_BOUND, worst
     assert np.isfinite(lowest).all()
     assert np.isfinite(highest).all()
@@ -189,9 +218,9 @@ def test_long_run_stays_on_the_floor_bounded_and_equal_to_the_grid_twin():
 
 
 # --------------------------------------------------------------- determinism
-def body_trajectory(seed=3, n_actions=400):
+def body_trajectory(seed=3, n_actions=400, env_id=PHYS_ID):
     """Every recorded body position of a fixed-seed run with resets, as raw float64 bytes."""
-    env = gym.make(PHYS_ID, record_path=True, max_episode_steps=50)
+    env = gym.make(env_id, record_path=True, max_episode_steps=50)
     actions = np.random.default_rng(seed).integers(4, size=n_actions).tolist()
     env.reset(seed=seed)
     chunks = []
@@ -207,13 +236,14 @@ def digest(path: np.ndarray) -> str:
     return hashlib.sha256(path.tobytes()).hexdigest()
 
 
-def test_body_trajectories_are_bit_identical_across_processes(run_python):
+@pytest.mark.parametrize("env_id", [PHYS_ID, "warehouse-robot-phys-aisles-v0"])
+def test_body_trajectories_are_bit_identical_across_processes(run_python, env_id):
     script = (
         "from tests.test_envs_physics import body_trajectory, digest\n"
-        "path = body_trajectory()\n"
+        f"path = body_trajectory(env_id={env_id!r})\n"
         "print(path.shape[0], digest(path))\n"
     )
-    here = body_trajectory()
+    here = body_trajectory(env_id=env_id)
     assert here.shape[0] == 400 * 15
     assert run_python(script).split() == [str(here.shape[0]), digest(here)]
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from warehouse_phys import grid as grid_module
@@ -145,3 +145,139 @@ def test_world_model_imports_no_simulation_or_gui_library():
         elif isinstance(node, ast.ImportFrom) and node.module:
             imported.add(node.module.split(".")[0])
     assert not imported & {"gymnasium", "gym", "pymunk", "pygame"}
+
+
+# --------------------------------------------------------------------- layouts
+@st.composite
+def layouts(draw, max_rows=6, max_cols=7):
+    """Random valid layouts: floor and shelves (about a third), start at (0, 0)."""
+    rows = draw(st.integers(1, max_rows))
+    cols = draw(st.integers(2 if rows == 1 else 1, max_cols))
+    symbols = draw(st.lists(st.sampled_from("..#"), min_size=rows * cols, max_size=rows * cols))
+    text = ["".join(symbols[r * cols : (r + 1) * cols]) for r in range(rows)]
+    text[0] = "." + text[0][1:]
+    try:
+        WarehouseGrid.from_layout(text)
+    except ValueError:
+        assume(False)  # everything walled off: no cell for a package
+    return text
+
+
+MAZE = ["S.#..", "..#.#", "....P"]
+
+
+def test_layout_symbols_make_shelves_start_and_package_cells():
+    grid = WarehouseGrid.from_layout(MAZE)
+    assert (grid.rows, grid.cols) == (3, 5)
+    assert grid.shelves == {(0, 2), (1, 2), (1, 4)}
+    assert grid.start == (0, 0)
+    assert grid.target_cells == ((2, 4),)
+    assert grid.layout == tuple(MAZE)
+    assert not grid.is_free((0, 2))
+    assert grid.is_free((0, 3))
+    assert not grid.is_free((3, 0))
+
+
+def test_without_package_cells_every_reachable_floor_cell_but_the_start_may_hold_one():
+    grid = WarehouseGrid.from_layout([".#.", ".#.", "..."])
+    assert set(grid.target_cells) == {(1, 0), (2, 0), (2, 1), (2, 2), (1, 2), (0, 2)}
+    enclosed = WarehouseGrid.from_layout(["..#.", "..#.", "###."])  # (0..2, 3) is an office
+    assert set(enclosed.target_cells) == {(0, 1), (1, 0), (1, 1)}
+    assert (0, 3) not in enclosed.reachable
+
+
+def test_start_symbol_moves_the_start():
+    grid = WarehouseGrid.from_layout(["#..", ".S.", "..."])
+    assert grid.start == (1, 1)
+    assert grid.start not in grid.target_cells
+
+
+@pytest.mark.parametrize(
+    ("layout", "error", "message"),
+    [
+        ([], TypeError, "non-empty list of strings"),
+        ("....", TypeError, "a layout is a list of strings"),
+        ([".." , 3], TypeError, "non-empty list of strings"),
+        ([""], ValueError, "layout row 0 is empty"),
+        (["...", ".."], ValueError, "row 1 has 2 cells, row 0 has 3"),
+        (["..x", "..."], ValueError, r"unknown layout symbol 'x' at row 0, column 2"),
+        (["S..", "..S"], ValueError, "at most one start 'S', found 2"),
+        (["#..", "..."], ValueError, r"the start cell \(0, 0\) is a shelf"),
+        (["S#P", "##."], ValueError, r"package cells \[\(0, 2\)\] cannot be reached"),
+        (["S#.", "#.."], ValueError, "leaves no cell for the package"),
+        (["S"], ValueError, "leaves no cell for the package"),
+    ],
+)  # fmt: skip
+def test_invalid_layouts_are_refused_with_the_reason(layout, error, message):
+    with pytest.raises(error, match=message):
+        WarehouseGrid.from_layout(layout)
+
+
+@given(layouts(), st.data())
+def test_moves_never_enter_a_shelf_or_leave_the_floor(layout, data):
+    grid = WarehouseGrid.from_layout(layout)
+    cell = data.draw(st.sampled_from(sorted(grid.reachable)))
+    for action in Action:
+        moved = grid.move(cell, action)
+        d_row, d_col = grid_module.ACTION_DELTAS[action]
+        wanted = (cell[0] + d_row, cell[1] + d_col)
+        assert moved == (wanted if grid.is_free(wanted) else cell)
+        assert moved in grid.reachable
+
+
+@given(layouts(), st.data())
+def test_optimal_steps_around_shelves_is_the_shortest_path(layout, data):
+    grid = WarehouseGrid.from_layout(layout)
+    cell = data.draw(st.sampled_from(sorted(grid.reachable)))
+    target = data.draw(st.sampled_from(grid.target_cells))
+    steps = grid.optimal_steps(cell, target)
+    assert steps == _bfs_steps(grid, cell, target)
+    assert steps >= abs(cell[0] - target[0]) + abs(cell[1] - target[1])
+
+
+def test_optimal_steps_detours_around_shelves_and_refuses_unreachable_cells():
+    grid = WarehouseGrid.from_layout(MAZE)
+    assert grid.optimal_steps((0, 0), (2, 4)) == 6
+    # Two columns apart, but the shelf at (0, 2) and (1, 2) makes it a walk round row 2.
+    assert grid.optimal_steps((0, 1), (0, 3)) == 6
+    office = WarehouseGrid.from_layout(["..#.", "..#.", "###."])
+    with pytest.raises(ValueError, match=r"\(1, 1\) cannot be reached from \(0, 3\)"):
+        office.optimal_steps((0, 3), (1, 1))
+
+
+@given(sizes)
+def test_empty_layout_is_the_empty_floor(size):
+    rows, cols = size
+    text = ["." * cols] + ["." + "P" * (cols - 1)] * (rows - 1)
+    laid_out, plain = WarehouseGrid.from_layout(text), WarehouseGrid(rows, cols)
+    assert laid_out.target_cells == plain.target_cells
+    assert laid_out.start == plain.start
+    for cell in [(r, c) for r in range(rows) for c in range(cols)]:
+        for action in Action:
+            assert laid_out.move(cell, action) == plain.move(cell, action)
+        for target in plain.target_cells:
+            assert laid_out.optimal_steps(cell, target) == plain.optimal_steps(cell, target)
+
+
+def test_random_walk_finish_rate_is_exact():
+    grid = WarehouseGrid(4, 5)
+    assert grid.random_walk_finish_rate(200) == pytest.approx(0.98664, abs=1e-5)
+    assert grid.random_walk_finish_rate(0) == 0.0
+    # One step from the start onto the only target, half the time.
+    corridor = WarehouseGrid.from_layout(["SP"])
+    assert corridor.random_walk_finish_rate(1) == pytest.approx(0.25)
+    assert corridor.random_walk_finish_rate(2) == pytest.approx(0.25 + 0.75 * 0.25)
+
+
+def test_random_walk_finish_rate_agrees_with_simulated_walks():
+    grid = WarehouseGrid.from_layout(MAZE)
+    rng = np.random.default_rng(0)
+    walks, finished = 4000, 0
+    for _ in range(walks):
+        target, cell = grid.sample_target(rng), grid.start
+        for _ in range(20):
+            cell = grid.move(cell, int(rng.integers(4)))
+            if cell == target:
+                finished += 1
+                break
+    assert finished / walks == pytest.approx(grid.random_walk_finish_rate(20), abs=0.025)

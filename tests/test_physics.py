@@ -254,3 +254,33 @@ def test_a_body_that_left_the_floor_is_reported_not_snapped():
     w.robot.position = (-5.0, 0.5)  # as if it had tunnelled through the left wall
     with pytest.raises(RuntimeError, match="left the floor"):
         w.move(Action.UP)
+
+
+# -------------------------------------------------------------------- shelves
+SHELVED = WarehouseGrid.from_layout(["S.#", "...", "#.."])
+
+
+@pytest.mark.parametrize(("start", "action"), [((0, 1), Action.RIGHT), ((1, 0), Action.DOWN)])
+def test_a_move_into_a_shelf_bumps_it_and_returns(start, action):
+    w = world(start=start, grid=SHELVED, record_path=True)
+    result = w.move(action)
+    assert result.cell == start
+    assert result.snap_error < SNAP_ERROR_BOUND
+    path = w.last_path
+    axis = 1 if action == Action.RIGHT else 0
+    towards = path[:, axis] - start[axis]  # positive: towards the shelf
+    gap = 0.5 - DEFAULTS.robot_radius / DEFAULTS.cell_size
+    overlap_allowed = DEFAULTS.max_speed * DEFAULTS.dt / DEFAULTS.cell_size
+    assert towards.max() > 0.8 * gap  # it drove up to the shelf...
+    assert towards.max() < gap + overlap_allowed  # ... which stopped it
+
+
+def test_shelves_are_static_boxes_merged_along_rows():
+    grid = WarehouseGrid.from_layout(["S.##.##", ".......", "###...#"])
+    w = world(start=(0, 0), grid=grid)
+    static = [s for s in w.space.shapes if s.body.body_type == pymunk.Body.STATIC]
+    # pymunk's bounding boxes: x from left to right, y (our rows) from "bottom" to "top".
+    boxes = sorted((s.bb.left, s.bb.bottom, s.bb.right, s.bb.top) for s in static[4:])
+    # Row 0, columns 2-3 and 5-6; row 2, columns 0-2 and 6: four boxes, filling their cells.
+    assert boxes == [(0, 2, 3, 3), (2, 0, 4, 1), (5, 0, 7, 1), (6, 2, 7, 3)]
+    assert len(static) == 4 + 4

@@ -239,6 +239,8 @@ def test_save_and_load_round_trip(tmp_path, trained):
         "gamma": 0.9,
         "seed": 0,
         "package_version": warehouse_phys.__version__,
+        "layout": None,
+        "layout_name": None,
     }
     # The loaded table evaluates the same as the trained one.
     assert evaluate(env, q) == evaluate(env, result.q)
@@ -317,6 +319,8 @@ def good_metadata(**changes):
         "gamma": 0.9,
         "seed": 0,
         "package_version": "0.1.0",
+        "layout": None,
+        "layout_name": None,
     }
     meta.update(changes)
     return np.array(json.dumps(meta))
@@ -389,3 +393,59 @@ def test_a_table_for_one_grid_is_refused_for_another(tmp_path, trained):
     assert load_q_table(path, rows=4, cols=5)[0].shape == (4, 5, 4, 5, 4)
     with pytest.raises(QTableError, match="the table is for a 4x5 grid, not 3x3"):
         load_q_table(path, rows=3, cols=3)
+
+
+# -------------------------------------------------------------------- layouts
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(warehouse_phys.PRESETS))
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_recommended_episodes_learn_every_preset_optimally(name, seed):
+    """On the grid twin, which learns exactly the table the physics twin learns."""
+    env = gym.make(warehouse_phys.preset_ids(name)[0])
+    episodes = warehouse_phys.PRESETS[name].training_episodes
+    result = train(env, QLearningConfig(episodes=episodes, seed=seed))
+    evaluation = evaluate(env, result.q)
+    assert evaluation.all_optimal, evaluation.table()
+    # Shortest paths around the shelves, not Manhattan distances.
+    grid = env.unwrapped.grid
+    assert [r.optimal_steps for r in evaluation.results] == [
+        grid.optimal_steps(grid.start, r.target) for r in evaluation.results
+    ]
+
+
+def test_both_worlds_learn_the_same_table_around_shelves():
+    config = QLearningConfig(episodes=120, seed=5)
+    layout = ["S.#.", "..#P", "...."]
+    grid = train(gym.make(GRID_ID, layout=layout, max_episode_steps=100), config)
+    phys = train(gym.make(PHYS_ID, layout=layout, max_episode_steps=100), config)
+    assert np.array_equal(grid.q, phys.q)
+
+
+def test_a_layout_travels_with_its_table(tmp_path):
+    env = gym.make("warehouse-robot-maze-v0")
+    result = train(env, QLearningConfig(episodes=20))
+    meta = table_metadata(env, result.config)
+    assert meta["env_id"] == "warehouse-robot-maze-v0"
+    assert meta["layout"] == list(warehouse_phys.PRESETS["maze"].rows)
+    assert meta["layout_name"] == "maze"
+    q, loaded = load_q_table(save_q_table(tmp_path / "q.npz", result.q, meta))
+    assert loaded["layout"] == meta["layout"]
+    assert q.shape == (5, 7, 5, 7, 4)
+    custom = gym.make(GRID_ID, layout=["S.#", "..P"])
+    assert table_metadata(custom, QLearningConfig())["layout_name"] is None
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"layout": ["S.#", "..x"], "grid_rows": 2, "grid_cols": 3}, "not a valid layout"),
+        ({"layout": ["S.#", "..P"]}, "metadata 'layout' is 2x3, not the 4x5 grid it names"),
+        ({"layout": "S.#"}, "metadata 'layout' has the wrong type"),
+    ],
+)
+def test_a_table_with_a_bad_layout_is_refused(tmp_path, changes, message):
+    path = tmp_path / "table.npz"
+    rows, cols = changes.get("grid_rows", 4), changes.get("grid_cols", 5)
+    write_npz(path, q=np.zeros((rows, cols, rows, cols, 4)), metadata=good_metadata(**changes))
+    with pytest.raises(QTableError, match=message):
+        load_q_table(path)

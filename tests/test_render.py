@@ -74,6 +74,31 @@ def test_package_is_drawn_on_the_target_cell():
     assert np.array_equal(empty_floor, other_floor)
 
 
+@pytest.mark.parametrize("env_id", [ENV_ID, PHYSICS_ENV_ID])
+def test_shelves_are_drawn_on_their_cells_with_the_shelf_sprite(env_id):
+    import pygame
+
+    env = gym.make(env_id, render_mode="rgb_array", layout=["S.#", "..#", "P.."])
+    env.reset(seed=0)
+    frame = env.render()
+
+    def cell(r, c):
+        return frame[r * CELL : (r + 1) * CELL, c * CELL : (c + 1) * CELL].astype(int)
+
+    assert np.array_equal(cell(0, 2), cell(1, 2))  # both shelves, the same picture
+    assert np.abs(cell(0, 2) - cell(1, 1)).mean() > 30  # unlike the floor
+    assert np.array_equal(cell(1, 1), cell(2, 2))  # floor cells stay floor
+    assert not robot_mask(cell(0, 2)).any()  # no orange on a shelf: the robot stays findable
+    # It is the project's shelf sprite, drawn over a floor tile.
+    sprite = pygame.image.load(str(render_module.sprite_path("shelf.png")))
+    floor = pygame.image.load(str(render_module.sprite_path("floor.png")))
+    tile = pygame.transform.smoothscale(floor, (CELL, CELL))
+    tile.blit(pygame.transform.smoothscale(sprite, (CELL, CELL)), (0, 0))
+    expected = pygame.surfarray.array3d(tile).transpose(1, 0, 2).astype(int)
+    assert np.array_equal(cell(0, 2), expected)
+    env.close()
+
+
 def test_status_line_shows_the_last_action_and_is_empty_after_reset():
     env = gym.make(ENV_ID, render_mode="rgb_array")
     env.reset(seed=0)

@@ -151,6 +151,9 @@ def test_eval_uses_the_tables_grid_and_refuses_another(tmp_path):
         (["--eval", "notes.txt"], "--eval: notes.txt: not an .npz archive"),
         (["--out", "notes.txt"], "--out notes.txt exists and is not a folder"),
         (["--frobnicate"], "unrecognized arguments: --frobnicate"),
+        (["--layout", "office"], "--layout 'office' is neither a preset .* nor a file"),
+        (["--layout", "notes.txt"], "--layout notes.txt: unknown layout symbol 'n' at row 0"),
+        (["--layout", "maze", "--rows", "3"], "--rows and --cols come from the layout"),
     ],
 )
 def test_bad_arguments_exit_2_with_one_line_and_write_nothing(tmp_path, monkeypatch, capsys,
@@ -224,3 +227,43 @@ def test_render_watches_one_greedy_episode_in_a_window(tmp_path, monkeypatch):
     assert steps[-1][2] is True
     assert len(steps) == steps[0][4]["optimal_steps"] + 1
     assert np.isclose(steps[-1][1], 1.0)
+
+
+# ------------------------------------------------------------------- --layout
+@pytest.mark.slow
+def test_a_preset_layout_trains_with_its_recommended_episodes(tmp_path):
+    result = run_cli("--env", "grid", "--layout", "maze", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    (folder,) = (tmp_path / "runs").iterdir()
+    assert folder.name.startswith("grid-maze-seed0-")
+    episodes = warehouse_phys.PRESETS["maze"].training_episodes
+    _, summary = assert_run_folder(
+        folder, "warehouse-robot-maze-v0", grid=(5, 7), episodes=episodes
+    )
+    assert summary["layout_name"] == "maze"
+    assert summary["evaluation"]["all_optimal"] is True
+    assert "all 23 targets reached by a shortest path" in result.stdout.splitlines()
+    # Evaluated again from the file, on the physics-backed twin of the preset.
+    again = run_cli("--eval", str(folder / "qtable.npz"), "--env", "phys", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert "on warehouse-robot-phys-maze-v0" in again.stdout.splitlines()[0]
+    assert "all 23 targets reached by a shortest path" in again.stdout
+
+
+def test_a_layout_file_trains_and_its_table_remembers_the_layout(tmp_path):
+    (tmp_path / "room.txt").write_text("\nS..#\n.#..\n...P\n\n")
+    result = run_cli("--env", "phys", "--layout", "room.txt", "--episodes", "200", "--out", "r",
+                     cwd=tmp_path)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    _, summary = assert_run_folder(
+        tmp_path / "r", warehouse_phys.PHYSICS_ENV_ID, grid=(3, 4), episodes=200
+    )
+    assert summary["layout"] == ["S..#", ".#..", "...P"]
+    assert summary["layout_name"] is None
+    assert summary["evaluation"]["results"] == [{"target": [2, 3], "steps": 5, "optimal_steps": 5}]
+    assert "the target reached by a shortest path" in result.stdout
+    # Without the file, --eval rebuilds the floor from the table.
+    (tmp_path / "room.txt").unlink()
+    again = run_cli("--eval", "r/qtable.npz", "--env", "grid", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert "the target reached by a shortest path" in again.stdout

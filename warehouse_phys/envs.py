@@ -11,6 +11,7 @@ environment drives a pymunk body there and reads the cell back from it.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -18,7 +19,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from warehouse_phys.grid import START_CELL, Action, Cell, WarehouseGrid
+from warehouse_phys.grid import Action, Cell, WarehouseGrid
+from warehouse_phys.layouts import resolve_layout
 from warehouse_phys.physics import PhysicsConfig, PhysicsWorld, check_controller
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
 
@@ -43,12 +45,13 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
 
     def __init__(
         self,
-        grid_rows: int = 4,
-        grid_cols: int = 5,
+        grid_rows: int | None = None,
+        grid_cols: int | None = None,
         render_mode: str | None = None,
         cell_px: int = DEFAULT_CELL_PX,
+        layout: str | Sequence[str] | None = None,
     ) -> None:
-        self.grid = WarehouseGrid(grid_rows, grid_cols)
+        self.grid = _make_grid(grid_rows, grid_cols, layout)
         self.grid_rows = self.grid.rows
         self.grid_cols = self.grid.cols
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -70,6 +73,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         self._renderer = WarehouseRenderer(
             self.grid_rows,
             self.grid_cols,
+            shelves=self.grid.shelves,
             cell_px=cell_px,
             render_fps=self.metadata["render_fps"],
             title=f"warehouse_phys: {type(self).__name__}",
@@ -135,7 +139,9 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         if self._robot is None:
             raise ResetNeeded("call reset() before render()")
         if self.render_mode == "ansi":
-            return ansi_frame(self.grid_rows, self.grid_cols, self._robot, self._target)
+            return ansi_frame(
+                self.grid_rows, self.grid_cols, self._robot, self._target, self.grid.shelves
+            )
         if self.render_mode == "rgb_array":
             return self._renderer.rgb_array(self._robot, self._target, self._status_text())
         self._renderer.show(self._robot, self._target, self._status_text())
@@ -174,22 +180,33 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
 
     def _parse_options(self, options: dict[str, Any] | None) -> tuple[Cell, Cell | None]:
         if not options:
-            return START_CELL, None
+            return self.grid.start, None
         unknown = set(options) - set(_RESET_OPTIONS)
         if unknown:
             raise ValueError(
                 f"unknown reset option(s) {sorted(unknown)}; known: {list(_RESET_OPTIONS)}"
             )
-        start = START_CELL
+        start = self.grid.start
         if options.get("start") is not None:
             start = self._checked_cell("start", options["start"])
+            if not self.grid.is_free(start):
+                raise ValueError(f"options['start'] {tuple(start)} is a shelf")
+            if start not in self.grid.reachable:
+                raise ValueError(
+                    f"options['start'] {tuple(start)} cannot be reached from the layout's start"
+                )
         target = None
         if options.get("target") is not None:
             target = self._checked_cell("target", options["target"])
             if target not in self.grid.target_cells:
+                allowed = (
+                    f"rows 1..{self.grid_rows - 1}, columns 1..{self.grid_cols - 1}"
+                    if self.grid.layout is None
+                    else "see grid.target_cells"
+                )
                 raise ValueError(
                     f"options['target'] {tuple(target)} is not a cell the target may occupy "
-                    f"(rows 1..{self.grid_rows - 1}, columns 1..{self.grid_cols - 1})"
+                    f"({allowed})"
                 )
             if start == target:
                 raise ValueError(f"options['start'] {tuple(start)} is the target's cell")
@@ -224,6 +241,12 @@ class WarehouseGridEnv(WarehouseEnvBase):
     "grid twin": it moves the robot with integer arithmetic, and the
     physics-backed environment follows exactly the same rules.
 
+    With ``layout=`` the floor is a warehouse with shelves instead: a preset
+    name (``"aisles"``, ``"depot"``, ``"maze"``) or rows of text, ``.`` floor,
+    ``#`` shelf, ``P`` a cell where packages may appear, ``S`` the start (see
+    :meth:`warehouse_phys.grid.WarehouseGrid.from_layout`). The presets are
+    also registered as ``warehouse-robot-<name>-v0``.
+
     ## Action Space
     ``Discrete(4)``:
 
@@ -234,8 +257,8 @@ class WarehouseGridEnv(WarehouseEnvBase):
     | 2     | RIGHT | column + 1   |
     | 3     | UP    | row - 1      |
 
-    The names are :class:`warehouse_phys.Action`. A move off the floor leaves
-    the robot where it is; it still counts as a step. Python ints, numpy
+    The names are :class:`warehouse_phys.Action`. A move off the floor or into
+    a shelf leaves the robot where it is; it still counts as a step. Python ints, numpy
     integers and 0-d integer arrays are accepted; anything else raises
     ``TypeError``, an integer outside 0..3 raises ``ValueError``, and the
     environment is unchanged by either.
@@ -248,11 +271,13 @@ class WarehouseGridEnv(WarehouseEnvBase):
     ## Starting State
     The robot stands on (0, 0). The target is drawn uniformly from rows 1..R-1
     and columns 1..C-1 (never row 0 or column 0, so never on the start) with
-    ``self.np_random``, seeded by ``reset(seed=...)``.
+    ``self.np_random``, seeded by ``reset(seed=...)``. On a layout the robot
+    starts on ``S`` (or (0, 0)) and the target is drawn from the ``P`` cells,
+    or without any from every floor cell the robot can reach but the start.
 
     ``reset(options=...)`` may override both: ``{"target": (r, c)}`` places the
     package on any allowed cell without a random draw, ``{"start": (r, c)}``
-    puts the robot on any other floor cell (a random target is then drawn
+    puts the robot on any other reachable floor cell (a random target is then drawn
     uniformly from the allowed cells other than the start). Evaluations use the
     first to try every target in turn.
 
@@ -265,23 +290,34 @@ class WarehouseGridEnv(WarehouseEnvBase):
       random walk on the default 4 x 5 floor needs 45 steps on average and ends
       within 200 steps in 98.6 % of episodes. Bigger floors need longer:
       ``gym.make("warehouse-robot-v0", grid_rows=8, grid_cols=8, max_episode_steps=1000)``.
+      Each preset's id has the limit that gives the same 98 % (1200, 1500 and
+      900 steps for ``aisles``, ``depot`` and ``maze``);
+      :func:`warehouse_phys.layouts.suggested_time_limit` computes it for any floor.
 
     Stepping on after termination is allowed and follows the same rules, as in
     Gymnasium's toy-text environments; call ``reset()`` to start a new episode.
 
     ``info`` holds ``"optimal_steps"``: the fewest actions from the robot's
-    cell to the target (the Manhattan distance on an empty floor).
+    cell to the target (the Manhattan distance on an empty floor, a
+    breadth-first search around shelves).
 
     ## Arguments
     - ``grid_rows`` (int, default 4), ``grid_cols`` (int, default 5): the floor's
-      size; each must be at least 2, or ``ValueError`` says why.
+      size; each must be at least 2, or ``ValueError`` says why. With a layout
+      they come from it and may be left out.
+    - ``layout`` (preset name, list of strings or ``None``): a floor with
+      shelves, described above. A layout that is ragged, uses an unknown
+      symbol, puts the start on a shelf, has package cells the robot cannot
+      reach or no cell for a package raises ``ValueError`` naming the row and
+      column.
     - ``render_mode`` (``None``, ``"human"``, ``"rgb_array"`` or ``"ansi"``):
       ``"rgb_array"`` returns an ``(H, W, 3)`` uint8 frame and never needs a
       display; ``"human"`` draws in a pygame window paced at
       ``metadata["render_fps"]`` (closing it or pressing Escape stops the
       drawing, never the process: see :attr:`user_closed_window`); ``"ansi"``
-      returns one text line per row, each cell as ``R``, ``T`` or ``_`` and a
-      space. Frames show a status line with the last action under the grid.
+      returns one text line per row, each cell as ``R``, ``T``, ``#`` (shelf)
+      or ``_`` and a space. Frames show a status line with the last action
+      under the grid.
     - ``cell_px`` (int, default 64): side of one cell in rendered frames, in pixels.
 
     ```python
@@ -318,6 +354,9 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
     stops it, and drives back to the centre of its own cell in the last
     ``settle_time`` of the move (see :mod:`warehouse_phys.physics`). Like a
     move off the floor in the grid twin, it leaves the robot where it was.
+    Shelves of a ``layout`` are static boxes filling their cells: the robot
+    bumps into them the same way. The presets are registered as
+    ``warehouse-robot-phys-<name>-v0``.
 
     ## Action Space
     ``Discrete(4)``: LEFT=0, DOWN=1, RIGHT=2, UP=3, as in :class:`WarehouseGridEnv`.
@@ -348,7 +387,7 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
     ``SNAP_ERROR_BOUND`` (0.02 of a cell); the defaults keep it under 0.005.
 
     ## Arguments
-    - ``grid_rows``, ``grid_cols``, ``render_mode``, ``cell_px``: as in
+    - ``grid_rows``, ``grid_cols``, ``render_mode``, ``cell_px``, ``layout``: as in
       :class:`WarehouseGridEnv`. ``"human"`` plays every move as smooth motion
       in real time (one frame per physics step at 60 fps with the defaults),
       then shows the snapped frame. ``"rgb_array"`` returns the frame after the
@@ -388,10 +427,11 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
 
     def __init__(
         self,
-        grid_rows: int = 4,
-        grid_cols: int = 5,
+        grid_rows: int | None = None,
+        grid_cols: int | None = None,
         render_mode: str | None = None,
         cell_px: int = DEFAULT_CELL_PX,
+        layout: str | Sequence[str] | None = None,
         *,
         cell_size: float = _PHYSICS_DEFAULTS.cell_size,
         robot_radius: float = _PHYSICS_DEFAULTS.robot_radius,
@@ -405,7 +445,7 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
         settle_time: float = _PHYSICS_DEFAULTS.settle_time,
         record_path: bool | None = None,
     ) -> None:
-        super().__init__(grid_rows, grid_cols, render_mode, cell_px)
+        super().__init__(grid_rows, grid_cols, render_mode, cell_px, layout)
         #: The physical parameters, checked here; each reset builds its world from them.
         self.physics = PhysicsConfig(
             cell_size=cell_size,
@@ -495,6 +535,24 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
         info = super()._get_info()
         info["snap_error"] = self._snap_error
         return info
+
+
+def _make_grid(
+    grid_rows: int | None, grid_cols: int | None, layout: str | Sequence[str] | None
+) -> WarehouseGrid:
+    """The empty ``grid_rows`` x ``grid_cols`` floor (4 x 5 by default), or the layout's."""
+    if layout is None:
+        return WarehouseGrid(
+            4 if grid_rows is None else grid_rows, 5 if grid_cols is None else grid_cols
+        )
+    grid = resolve_layout(layout)
+    for name, given, actual in (
+        ("grid_rows", grid_rows, grid.rows),
+        ("grid_cols", grid_cols, grid.cols),
+    ):
+        if given is not None and given != actual:
+            raise ValueError(f"{name}={given} contradicts the layout, which has {actual}")
+    return grid
 
 
 def _checked_action(action: object) -> Action:

@@ -7,6 +7,8 @@ gymnasium, pymunk nor pygame: only numpy, for the random generator type.
 
 from __future__ import annotations
 
+from collections import deque
+from collections.abc import Sequence
 from enum import IntEnum
 from typing import NamedTuple
 
@@ -46,9 +48,22 @@ TARGET_REWARD = 1.0
 MIN_ROWS = 2
 MIN_COLS = 2
 
+#: The symbols of a layout's text, one character per cell.
+FLOOR, SHELF, PACKAGE, START = ".", "#", "P", "S"
+LAYOUT_SYMBOLS = {
+    FLOOR: "floor",
+    SHELF: "shelf",
+    PACKAGE: "floor where packages may appear",
+    START: "the robot's start (floor)",
+}
+
 
 class WarehouseGrid:
-    """An empty rectangular warehouse floor of ``rows`` x ``cols`` cells.
+    """A rectangular warehouse floor: its size, its shelves, and the rules on it.
+
+    ``WarehouseGrid(rows, cols)`` is the empty floor: no shelves, the robot
+    starting at (0, 0) and targets in rows 1..R-1 and columns 1..C-1.
+    :meth:`from_layout` builds a floor with shelves from text.
 
     The grid knows the rules and nothing about episodes: where a move leads,
     which cells may hold the target, how a target is drawn and how far any
@@ -60,33 +75,155 @@ class WarehouseGrid:
             would leave no cell for the target outside row 0 and column 0.
     """
 
-    __slots__ = ("cols", "rows", "target_cells")
+    __slots__ = (
+        "_distances",
+        "_free",
+        "cols",
+        "layout",
+        "reachable",
+        "rows",
+        "shelves",
+        "start",
+        "target_cells",
+    )
 
     def __init__(self, rows: int, cols: int) -> None:
-        self.rows = _checked_size("grid_rows", rows, MIN_ROWS)
-        self.cols = _checked_size("grid_cols", cols, MIN_COLS)
-        #: Every cell the target may be placed on, in row-major order: rows
-        #: 1..R-1 and columns 1..C-1, so never the start cell's row or column.
-        self.target_cells: tuple[Cell, ...] = tuple(
-            Cell(r, c) for r in range(1, self.rows) for c in range(1, self.cols)
+        rows = _checked_size("grid_rows", rows, MIN_ROWS)
+        cols = _checked_size("grid_cols", cols, MIN_COLS)
+        targets = tuple(Cell(r, c) for r in range(1, rows) for c in range(1, cols))
+        self._setup(rows, cols, frozenset(), START_CELL, targets, layout=None)
+
+    @classmethod
+    def from_layout(cls, layout: Sequence[str]) -> WarehouseGrid:
+        """A floor drawn as text: one string per row, one symbol per cell.
+
+        ``.`` is floor, ``#`` a shelf, ``P`` floor on which packages may
+        appear and ``S`` the robot's start (at most one; (0, 0) without it).
+        Without ``P``, packages may appear on every floor cell the robot can
+        reach, except the start. Cells are reached by moves between free
+        neighbours; floor that cannot be reached is allowed (an office, say)
+        but never holds a package.
+
+        Raises:
+            TypeError: if ``layout`` is not a sequence of strings.
+            ValueError: naming the row and column, for an empty layout, rows of
+                different lengths, an unknown symbol, more than one ``S``, a
+                start on a shelf, ``P`` cells the robot cannot reach, or no
+                cell at all for a package.
+        """
+        if isinstance(layout, str) or not isinstance(layout, Sequence):
+            raise TypeError(
+                f"a layout is a list of strings, one per row, got {type(layout).__name__}"
+            )
+        rows = list(layout)
+        if not rows or not all(isinstance(row, str) for row in rows):
+            raise TypeError("a layout is a non-empty list of strings, one per row")
+        width = len(rows[0])
+        if width == 0:
+            raise ValueError("layout row 0 is empty")
+        for r, row in enumerate(rows):
+            if len(row) != width:
+                raise ValueError(
+                    f"layout rows must all have the same length: row {r} has {len(row)} "
+                    f"cells, row 0 has {width}"
+                )
+            for c, symbol in enumerate(row):
+                if symbol not in LAYOUT_SYMBOLS:
+                    known = ", ".join(f"{k!r} {v}" for k, v in LAYOUT_SYMBOLS.items())
+                    raise ValueError(
+                        f"unknown layout symbol {symbol!r} at row {r}, column {c}; known: {known}"
+                    )
+        starts = [Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == START]
+        if len(starts) > 1:
+            raise ValueError(f"a layout has at most one start {START!r}, found {len(starts)}")
+        start = starts[0] if starts else START_CELL
+        if rows[start.row][start.col] == SHELF:
+            raise ValueError(f"the start cell {tuple(start)} is a shelf")
+        shelves = frozenset(
+            Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == SHELF
+        )
+        grid = cls.__new__(cls)
+        grid._setup(len(rows), width, shelves, start, (), layout=tuple(rows))
+        marked = [
+            Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == PACKAGE
+        ]
+        if marked:
+            unreachable = [tuple(cell) for cell in marked if cell not in grid.reachable]
+            if unreachable:
+                raise ValueError(
+                    f"package cells {unreachable} cannot be reached from the start {tuple(start)}"
+                )
+            targets = tuple(cell for cell in marked if cell != start)
+        else:
+            targets = tuple(
+                Cell(r, c)
+                for r in range(len(rows))
+                for c in range(width)
+                if Cell(r, c) in grid.reachable and Cell(r, c) != start
+            )
+        if not targets:
+            raise ValueError(
+                f"the layout leaves no cell for the package: no floor other than the start "
+                f"{tuple(start)} can be reached"
+            )
+        grid.target_cells = targets
+        return grid
+
+    def _setup(
+        self,
+        rows: int,
+        cols: int,
+        shelves: frozenset[Cell],
+        start: Cell,
+        target_cells: tuple[Cell, ...],
+        *,
+        layout: tuple[str, ...] | None,
+    ) -> None:
+        self.rows = rows
+        self.cols = cols
+        #: The shelf cells; the robot can never stand on one.
+        self.shelves = shelves
+        #: Where the robot stands after every reset.
+        self.start = start
+        #: Every cell the target may be placed on, in row-major order. On the
+        #: empty floor: rows 1..R-1 and columns 1..C-1, so never the start's
+        #: row or column.
+        self.target_cells = target_cells
+        #: The layout's text, or ``None`` for the empty floor.
+        self.layout = layout
+        self._free = [[Cell(r, c) not in shelves for c in range(cols)] for r in range(rows)]
+        self._distances: dict[Cell, list[list[int]]] = {}
+        #: Every cell the robot can reach from the start.
+        self.reachable = frozenset(
+            Cell(r, c)
+            for r, row in enumerate(self._distances_from(start))
+            for c, d in enumerate(row)
+            if d >= 0
         )
 
     def __repr__(self) -> str:
-        return f"WarehouseGrid(rows={self.rows}, cols={self.cols})"
+        if self.layout is None:
+            return f"WarehouseGrid(rows={self.rows}, cols={self.cols})"
+        return f"WarehouseGrid.from_layout({list(self.layout)!r})"
 
     def contains(self, cell: tuple[int, int]) -> bool:
-        """Whether ``cell`` lies on the floor."""
+        """Whether ``cell`` lies on the floor (shelf cells included)."""
         row, col = cell
         return 0 <= row < self.rows and 0 <= col < self.cols
+
+    def is_free(self, cell: tuple[int, int]) -> bool:
+        """Whether the robot may stand on ``cell``: on the floor and not a shelf."""
+        row, col = cell
+        return 0 <= row < self.rows and 0 <= col < self.cols and self._free[row][col]
 
     def move(self, cell: tuple[int, int], action: int) -> Cell:
         """The cell reached from ``cell`` by ``action``.
 
-        A move off the floor leaves the robot where it is.
+        A move off the floor or into a shelf leaves the robot where it is.
         """
         d_row, d_col = ACTION_DELTAS[action]
         row, col = cell[0] + d_row, cell[1] + d_col
-        if 0 <= row < self.rows and 0 <= col < self.cols:
+        if 0 <= row < self.rows and 0 <= col < self.cols and self._free[row][col]:
             return Cell(row, col)
         return Cell(cell[0], cell[1])
 
@@ -106,9 +243,60 @@ class WarehouseGrid:
     def optimal_steps(self, cell: tuple[int, int], target: tuple[int, int]) -> int:
         """The fewest actions that take the robot from ``cell`` to ``target``.
 
-        On an empty floor this is the Manhattan distance.
+        On an empty floor this is the Manhattan distance; around shelves it
+        comes from a breadth-first search over the free cells (cached per target).
+
+        Raises:
+            ValueError: if ``target`` cannot be reached from ``cell``.
         """
-        return abs(cell[0] - target[0]) + abs(cell[1] - target[1])
+        if not self.shelves:
+            return abs(cell[0] - target[0]) + abs(cell[1] - target[1])
+        distances = self._distances.get(target)
+        if distances is None:
+            distances = self._distances[Cell(*target)] = self._distances_from(target)
+        steps = distances[cell[0]][cell[1]]
+        if steps < 0:
+            raise ValueError(f"{tuple(target)} cannot be reached from {tuple(cell)}")
+        return steps
+
+    def _distances_from(self, origin: tuple[int, int]) -> list[list[int]]:
+        """Moves from ``origin`` to every cell (the same both ways); -1 where it cannot go."""
+        distances = [[-1] * self.cols for _ in range(self.rows)]
+        if not self.is_free(origin):
+            return distances
+        distances[origin[0]][origin[1]] = 0
+        frontier = deque([(origin[0], origin[1])])
+        while frontier:
+            row, col = frontier.popleft()
+            for d_row, d_col in ACTION_DELTAS:
+                r, c = row + d_row, col + d_col
+                if self.is_free((r, c)) and distances[r][c] < 0:
+                    distances[r][c] = distances[row][col] + 1
+                    frontier.append((r, c))
+        return distances
+
+    def random_walk_finish_rate(self, steps: int) -> float:
+        """The chance that uniformly random actions reach the target within ``steps`` actions.
+
+        Averaged over the targets, each equally likely, from the start; computed
+        exactly by evolving the walk's distribution over the reachable cells
+        with the target made absorbing. Time limits are chosen with it.
+        """
+        cells = sorted(self.reachable)
+        index = {cell: i for i, cell in enumerate(cells)}
+        transition = np.zeros((len(cells), len(cells)))
+        for cell in cells:
+            for action in range(len(ACTION_DELTAS)):
+                transition[index[cell], index[self.move(cell, action)]] += 1 / len(ACTION_DELTAS)
+        targets = [index[target] for target in self.target_cells]
+        # One row per target: where the walk may be, having not yet reached that target.
+        alive = np.zeros((len(targets), len(cells)))
+        alive[:, index[self.start]] = 1.0
+        rows = np.arange(len(targets))
+        for _ in range(steps):
+            alive = alive @ transition
+            alive[rows, targets] = 0.0
+        return float(1.0 - alive.sum(axis=1).mean())
 
     @staticmethod
     def outcome(cell: tuple[int, int], target: tuple[int, int]) -> tuple[float, bool]:

@@ -180,8 +180,10 @@ class PhysicsWorld:
         *,
         record_path: bool = False,
     ) -> None:
-        if not grid.contains(start):
-            raise ValueError(f"start {tuple(start)} is off the {grid.rows}x{grid.cols} floor")
+        if not grid.is_free(start):
+            raise ValueError(
+                f"start {tuple(start)} is off the {grid.rows}x{grid.cols} floor or on a shelf"
+            )
         self.grid = grid
         self.config = config
         self.record_path = record_path
@@ -198,6 +200,7 @@ class PhysicsWorld:
         # let the robot sink 10 cm into a wall.
         space.collision_slop = COLLISION_SLOP * config.cell_size
         space.add(*_wall_shapes(space.static_body, grid.rows, grid.cols, config.cell_size))
+        space.add(*_shelf_shapes(space.static_body, grid.shelves, config.cell_size))
 
         robot = pymunk.Body()
         shape = pymunk.Circle(robot, config.robot_radius)
@@ -258,8 +261,10 @@ class PhysicsWorld:
         if not (math.isfinite(x) and math.isfinite(y)):
             raise RuntimeError(f"the robot's position became {x!r}, {y!r}")
         cell = self.cell_at(x, y)
-        if not self.grid.contains(cell):
-            raise RuntimeError(f"the robot left the floor: it is at ({x:.3f}, {y:.3f}) m")
+        if not self.grid.is_free(cell):
+            raise RuntimeError(
+                f"the robot left the floor or entered a shelf: it is at ({x:.3f}, {y:.3f}) m"
+            )
         centre = self.centre(cell)
         snap_error = math.hypot(x - centre[0], y - centre[1]) / self._cell_size
         # The one teleport: onto the centre, at rest, with the aim on it too.
@@ -325,6 +330,38 @@ def _raw_step(space: pymunk.Space) -> Callable[[float], None]:
     return functools.partial(step, handle)
 
 
+def _box(
+    static_body: pymunk.Body, left: float, top: float, right: float, bottom: float
+) -> pymunk.Poly:
+    """A static box with the walls' surface, given by its edges [m]."""
+    box = pymunk.Poly(static_body, [(left, top), (right, top), (right, bottom), (left, bottom)])
+    box.friction = WALL_FRICTION
+    box.elasticity = 0.0
+    return box
+
+
+def _shelf_shapes(
+    static_body: pymunk.Body, shelves: frozenset[Cell], cell_size: float
+) -> list[pymunk.Poly]:
+    """One static box per horizontal run of shelf cells, each filling its cells exactly.
+
+    A robot moving towards a shelf meets its edge half a cell from its own
+    centre, exactly as it meets a wall. Merging runs keeps the number of
+    shapes, hence the cost of building a world at every reset, small.
+    """
+    runs: list[list[int]] = []  # [row, first column, last column]
+    for row, col in sorted(shelves):
+        if runs and runs[-1][0] == row and runs[-1][2] == col - 1:
+            runs[-1][2] = col
+        else:
+            runs.append([row, col, col])
+    size = cell_size
+    return [
+        _box(static_body, first * size, row * size, (last + 1) * size, (row + 1) * size)
+        for row, first, last in runs
+    ]
+
+
 def _wall_shapes(
     static_body: pymunk.Body, rows: int, cols: int, cell_size: float
 ) -> list[pymunk.Poly]:
@@ -337,15 +374,7 @@ def _wall_shapes(
         (-thick, 0.0, 0.0, height),  # left
         (width, 0.0, width + thick, height),  # right
     )
-    shapes = []
-    for left, top, right, bottom in boxes:
-        wall = pymunk.Poly(
-            static_body, [(left, top), (right, top), (right, bottom), (left, bottom)]
-        )
-        wall.friction = WALL_FRICTION
-        wall.elasticity = 0.0
-        shapes.append(wall)
-    return shapes
+    return [_box(static_body, *box) for box in boxes]
 
 
 def check_controller(config: PhysicsConfig) -> None:

@@ -38,7 +38,8 @@ import gymnasium as gym
 import numpy as np
 
 from warehouse_phys.atomic import atomic_write
-from warehouse_phys.grid import Cell
+from warehouse_phys.grid import Cell, WarehouseGrid
+from warehouse_phys.layouts import preset_name
 
 #: Identifies our archives; bumped if their layout ever changes.
 TABLE_FORMAT = "warehouse_phys.qtable"
@@ -55,6 +56,9 @@ _METADATA_FIELDS: dict[str, type | tuple[type, ...]] = {
     "gamma": (int, float),
     "seed": int,
     "package_version": str,
+    # The floor's layout rows (None for the empty floor) and its preset name, if any.
+    "layout": (list, type(None)),
+    "layout_name": (str, type(None)),
 }
 
 
@@ -263,7 +267,11 @@ class Evaluation:
         """One line: how many of the targets were reached, and how many optimally."""
         n = len(self.results)
         if self.all_optimal:
-            return f"all {n} targets reached by a shortest path"
+            return (
+                "the target reached by a shortest path"
+                if n == 1
+                else (f"all {n} targets reached by a shortest path")
+            )
         return f"{self.reached} of {n} targets reached, {self.optimal} of them by a shortest path"
 
     def table(self) -> str:
@@ -338,6 +346,7 @@ def table_metadata(env: gym.Env, config: QLearningConfig) -> dict[str, Any]:
 
     rows, cols = _grid_size(env)
     spec = getattr(env, "spec", None)
+    layout = env.unwrapped.grid.layout
     return {
         "format": TABLE_FORMAT,
         "format_version": TABLE_FORMAT_VERSION,
@@ -346,6 +355,8 @@ def table_metadata(env: gym.Env, config: QLearningConfig) -> dict[str, Any]:
         "grid_cols": cols,
         **{k: v for k, v in asdict(config).items() if k in _METADATA_FIELDS},
         "package_version": __version__,
+        "layout": None if layout is None else list(layout),
+        "layout_name": None if layout is None else preset_name(layout),
     }
 
 
@@ -440,9 +451,9 @@ def _check_metadata(metadata: Any, *, where: str) -> None:
     if not isinstance(metadata, dict):
         raise error(f"{where}: metadata must be a JSON object")
     for name, kind in _METADATA_FIELDS.items():
-        value = metadata.get(name)
-        if value is None:
+        if name not in metadata:
             raise error(f"{where}: metadata has no {name!r}")
+        value = metadata[name]
         if isinstance(value, bool) or not isinstance(value, kind):
             raise error(f"{where}: metadata {name!r} has the wrong type: {value!r}")
     if metadata["format"] != TABLE_FORMAT:
@@ -452,9 +463,19 @@ def _check_metadata(metadata: Any, *, where: str) -> None:
             f"{where}: format version {metadata['format_version']} is not supported "
             f"(this version reads {TABLE_FORMAT_VERSION})"
         )
-    if metadata["grid_rows"] < 2 or metadata["grid_cols"] < 2:
+    grid = (metadata["grid_rows"], metadata["grid_cols"])
+    if metadata["layout"] is None:
+        if min(grid) < 2:
+            raise error(f"{where}: grid {grid[0]}x{grid[1]} is smaller than 2x2")
+        return
+    try:
+        layout_grid = WarehouseGrid.from_layout(metadata["layout"])
+    except (TypeError, ValueError) as problem:
+        raise error(f"{where}: metadata 'layout' is not a valid layout: {problem}") from None
+    if (layout_grid.rows, layout_grid.cols) != grid:
         raise error(
-            f"{where}: grid {metadata['grid_rows']}x{metadata['grid_cols']} is smaller than 2x2"
+            f"{where}: metadata 'layout' is {layout_grid.rows}x{layout_grid.cols}, "
+            f"not the {grid[0]}x{grid[1]} grid it names"
         )
 
 

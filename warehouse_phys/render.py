@@ -13,7 +13,7 @@ with ``render_mode=None`` (or ``"ansi"``) never loads it.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Collection, Iterable, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
@@ -23,7 +23,7 @@ import numpy as np
 if TYPE_CHECKING:
     import pygame
 
-SPRITE_NAMES = ("robot.png", "floor.png", "package.png")
+SPRITE_NAMES = ("robot.png", "floor.png", "package.png", "shelf.png")
 
 #: Where sprites are looked for, in order: package data inside an installed
 #: wheel, then the ``sprites/`` folder of a source checkout.
@@ -57,10 +57,17 @@ def sprite_path(name: str) -> Path:
     )
 
 
-def ansi_frame(rows: int, cols: int, robot: tuple[int, int], target: tuple[int, int]) -> str:
-    """The console picture: one line per grid row, each cell as ``R``, ``T`` or ``_`` and a space.
+def ansi_frame(
+    rows: int,
+    cols: int,
+    robot: tuple[int, int],
+    target: tuple[int, int],
+    shelves: Collection[tuple[int, int]] = (),
+) -> str:
+    """The console picture: one line per grid row, each cell as a symbol and a space.
 
-    The robot is drawn over the target when both share a cell.
+    ``R`` robot, ``T`` target, ``#`` shelf, ``_`` floor. The robot is drawn
+    over the target when both share a cell.
     """
     lines = []
     for r in range(rows):
@@ -70,6 +77,8 @@ def ansi_frame(rows: int, cols: int, robot: tuple[int, int], target: tuple[int, 
                 cells.append("R ")
             elif (r, c) == (target[0], target[1]):
                 cells.append("T ")
+            elif (r, c) in shelves:
+                cells.append("# ")
             else:
                 cells.append("_ ")
         lines.append("".join(cells) + "\n")
@@ -94,6 +103,7 @@ class WarehouseRenderer:
     Args:
         rows: Number of grid rows.
         cols: Number of grid columns.
+        shelves: Cells drawn as shelves.
         cell_px: Side of one cell on screen [px].
         render_fps: Pace of :meth:`show` [frames/s].
         title: Window caption.
@@ -104,6 +114,7 @@ class WarehouseRenderer:
         rows: int,
         cols: int,
         *,
+        shelves: Iterable[tuple[int, int]] = (),
         cell_px: int = DEFAULT_CELL_PX,
         render_fps: float = 4,
         title: str = "warehouse_phys",
@@ -114,6 +125,7 @@ class WarehouseRenderer:
             raise ValueError(f"cell_px must be at least {MIN_CELL_PX}, got {cell_px}")
         self.rows = rows
         self.cols = cols
+        self.shelves = tuple(shelves)
         self.cell_px = int(cell_px)
         self.render_fps = render_fps
         self.title = title
@@ -250,6 +262,10 @@ class WarehouseRenderer:
         for r in range(self.rows):
             for c in range(self.cols):
                 floor.blit(tile, (c * px, r * px))
+        if self.shelves:
+            shelf = load("shelf.png")
+            for r, c in self.shelves:
+                floor.blit(shelf, (c * px, r * px))
         self._floor = floor
         self._robot = load("robot.png")
         self._package = load("package.png")

@@ -9,6 +9,7 @@ and the greedy policy is evaluated against every target and printed as a table.
     python -m warehouse_phys.train --env grid --episodes 2000 --seed 3
     python -m warehouse_phys.train --eval runs/phys-seed0-20260101-120000/qtable.npz
     python -m warehouse_phys.train --rows 3 --cols 3 --render
+    python -m warehouse_phys.train --env grid --layout aisles
 
 Bad arguments and unusable tables end with exit status 2 and a one-line
 message, before anything is written. The algorithm lives in
@@ -22,7 +23,7 @@ import json
 import os
 import sys
 import time
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -30,6 +31,8 @@ import gymnasium as gym
 
 import warehouse_phys
 from warehouse_phys.atomic import atomic_write_text
+from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.layouts import PRESETS, preset_ids, suggested_time_limit
 from warehouse_phys.qlearning import (
     Evaluation,
     QLearningConfig,
@@ -53,6 +56,38 @@ TABLE_FILE, CURVE_FILE, SUMMARY_FILE = "qtable.npz", "learning_curve.png", "summ
 
 class UsageError(Exception):
     """A bad command line or input file: reported in one line, exit status 2."""
+
+
+@dataclass(frozen=True)
+class Floor:
+    """The floor to train or evaluate on: the empty one, a preset, or a layout's rows."""
+
+    rows: int | None = None
+    cols: int | None = None
+    preset: str | None = None
+    layout: tuple[str, ...] | None = None
+    #: A short name for run folders: the preset's name or the layout file's stem.
+    label: str | None = None
+
+    def make(self, kind: str, render_mode: str | None = None) -> gym.Env:
+        """The ``kind`` ("grid" or "phys") environment on this floor, through ``gym.make``."""
+        if self.preset is not None:
+            grid_id, physics_id = preset_ids(self.preset)
+            return gym.make(physics_id if kind == "phys" else grid_id, render_mode=render_mode)
+        if self.layout is not None:
+            limit = suggested_time_limit(WarehouseGrid.from_layout(self.layout))
+            return gym.make(
+                ENVIRONMENTS[kind],
+                layout=list(self.layout),
+                render_mode=render_mode,
+                max_episode_steps=limit,
+            )
+        return gym.make(
+            ENVIRONMENTS[kind],
+            grid_rows=self.rows or 4,
+            grid_cols=self.cols or 5,
+            render_mode=render_mode,
+        )
 
 
 class _Parser(argparse.ArgumentParser):
@@ -106,8 +141,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--episodes",
         type=_bounded_int(1, "a positive number of episodes"),
-        default=defaults.episodes,
-        help=f"training episodes (default {defaults.episodes})",
+        help=f"training episodes (default {defaults.episodes}, or the layout preset's own)",
     )
     parser.add_argument(
         "--seed",
@@ -124,6 +158,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--cols",
         type=_bounded_int(2, "at least 2 columns"),
         help="grid columns (default 5; with --eval it must match the table)",
+    )
+    parser.add_argument(
+        "--layout",
+        metavar="NAME_OR_FILE",
+        help=f"train on a warehouse layout: a preset ({', '.join(PRESETS)}) or a text file "
+        "of rows ('.' floor, '#' shelf, 'P' package cell, 'S' start)",
     )
     parser.add_argument(
         "--alpha",
@@ -176,17 +216,19 @@ def main(argv: list[str] | None = None) -> int:
 
 # ----------------------------------------------------------------- training
 def _train(args: argparse.Namespace) -> int:
-    env_name = args.env or DEFAULT_ENV
-    env_id = ENVIRONMENTS[env_name]
-    rows, cols = args.rows or 4, args.cols or 5
-    config = QLearningConfig(
-        episodes=args.episodes, alpha=args.alpha, gamma=args.gamma, seed=args.seed
-    )
+    kind = args.env or DEFAULT_ENV
+    floor = _floor_from_args(args)
+    episodes = args.episodes
+    if episodes is None:
+        episodes = PRESETS[floor.preset].training_episodes if floor.preset else 1000
+    config = QLearningConfig(episodes=episodes, alpha=args.alpha, gamma=args.gamma, seed=args.seed)
     started = time.localtime()
-    run_dir = args.out or _new_run_dir(env_name, args.seed, started)
+    run_dir = args.out or _new_run_dir(kind, floor.label, args.seed, started)
     _check_writable(run_dir)
 
-    env = gym.make(env_id, grid_rows=rows, grid_cols=cols)
+    env = floor.make(kind)
+    env_id = env.spec.id
+    rows, cols = env.unwrapped.grid_rows, env.unwrapped.grid_cols
     progress = _progress_bar(config.episodes, env_id, disable=args.quiet)
     start = time.perf_counter()
     try:
@@ -207,13 +249,41 @@ def _train(args: argparse.Namespace) -> int:
         print(evaluation.table())
         print(f"wrote {run_dir / TABLE_FILE}, {CURVE_FILE} and {SUMMARY_FILE}")
     if args.render:
-        _watch(env_id, rows, cols, result.q, seed=args.seed)
+        _watch(floor, kind, result.q, seed=args.seed)
     return 0
 
 
-def _new_run_dir(env_name: str, seed: int, started: time.struct_time) -> Path:
-    """``runs/<env>-seed<seed>-<time>``, with a suffix if that folder already exists."""
-    name = f"{env_name}-seed{seed}-{time.strftime('%Y%m%d-%H%M%S', started)}"
+def _floor_from_args(args: argparse.Namespace) -> Floor:
+    if args.layout is None:
+        return Floor(rows=args.rows, cols=args.cols)
+    if args.rows is not None or args.cols is not None:
+        raise UsageError("--rows and --cols come from the layout; leave them out with --layout")
+    if args.layout in PRESETS:
+        return Floor(preset=args.layout, label=args.layout)
+    path = Path(args.layout)
+    if not path.is_file():
+        raise UsageError(
+            f"--layout {args.layout!r} is neither a preset ({', '.join(PRESETS)}) nor a file"
+        )
+    try:
+        lines = [line.rstrip() for line in path.read_text(encoding="utf-8").splitlines()]
+    except (OSError, UnicodeDecodeError) as error:
+        raise UsageError(f"--layout {path}: cannot be read ({error})") from None
+    while lines and not lines[-1]:
+        lines.pop()
+    while lines and not lines[0]:
+        lines.pop(0)
+    try:
+        WarehouseGrid.from_layout(lines)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"--layout {path}: {error}") from None
+    return Floor(layout=tuple(lines), label=path.stem)
+
+
+def _new_run_dir(kind: str, label: str | None, seed: int, started: time.struct_time) -> Path:
+    """``runs/<env>[-<layout>]-seed<seed>-<time>``, with a suffix if that folder exists."""
+    floor = f"-{label}" if label else ""
+    name = f"{kind}{floor}-seed{seed}-{time.strftime('%Y%m%d-%H%M%S', started)}"
     run_dir, n = DEFAULT_RUNS_DIR / name, 1
     while run_dir.exists():
         n += 1
@@ -266,6 +336,8 @@ def _write_run(
     summary = {
         "env_id": metadata["env_id"],
         "grid": [metadata["grid_rows"], metadata["grid_cols"]],
+        "layout": metadata["layout"],
+        "layout_name": metadata["layout_name"],
         "config": asdict(result.config),
         "package_version": warehouse_phys.__version__,
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", started),
@@ -297,15 +369,17 @@ def _evaluate_saved(args: argparse.Namespace) -> int:
             f"--eval: {args.eval} holds a table for a {table_grid[0]}x{table_grid[1]} grid, "
             f"not {asked[0]}x{asked[1]}"
         )
-    if args.env is not None:
-        env_id = ENVIRONMENTS[args.env]
-    elif metadata["env_id"] in ENVIRONMENTS.values():
-        env_id = metadata["env_id"]
+    if args.layout is not None:
+        raise UsageError("--eval: the layout comes from the table; leave --layout out")
+    kind = args.env or _kind_of(metadata["env_id"])
+    if metadata["layout_name"] is not None:
+        floor = Floor(preset=metadata["layout_name"])
+    elif metadata["layout"] is not None:
+        floor = Floor(layout=tuple(metadata["layout"]))
     else:
-        raise UsageError(
-            f"--eval: the table was trained on {metadata['env_id']!r}; choose --env grid or phys"
-        )
-    env = gym.make(env_id, grid_rows=table_grid[0], grid_cols=table_grid[1])
+        floor = Floor(rows=table_grid[0], cols=table_grid[1])
+    env = floor.make(kind)
+    env_id = env.spec.id
     evaluation = evaluate(env, q)
     env.close()
     if not args.quiet:
@@ -315,13 +389,21 @@ def _evaluate_saved(args: argparse.Namespace) -> int:
         )
         print(evaluation.table())
     if args.render:
-        _watch(env_id, *table_grid, q, seed=args.seed)
+        _watch(floor, kind, q, seed=args.seed)
     return 0
 
 
-def _watch(env_id: str, rows: int, cols: int, q: Any, *, seed: int) -> None:
+def _kind_of(env_id: str) -> str:
+    """ "grid" or "phys": which of the package's environments ``env_id`` is."""
+    spec = gym.registry.get(env_id)
+    if spec is None or not str(spec.entry_point).startswith("warehouse_phys."):
+        raise UsageError(f"--eval: the table was trained on {env_id!r}; choose --env grid or phys")
+    return "phys" if str(spec.entry_point).endswith("WarehousePhysicsEnv") else "grid"
+
+
+def _watch(floor: Floor, kind: str, q: Any, *, seed: int) -> None:
     """Play one greedy episode in a window until the target, the time limit or a closed window."""
-    env = gym.make(env_id, grid_rows=rows, grid_cols=cols, render_mode="human")
+    env = floor.make(kind, render_mode="human")
     try:
         obs, _ = env.reset(seed=seed)
         terminated = truncated = False

@@ -1,0 +1,92 @@
+"""The warehouse layout presets and their registered environments."""
+
+import ast
+from pathlib import Path
+
+import gymnasium as gym
+import pytest
+
+import warehouse_phys
+from warehouse_phys import layouts as layouts_module
+from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.layouts import (
+    PRESETS,
+    preset_ids,
+    preset_name,
+    resolve_layout,
+    suggested_time_limit,
+)
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_presets_are_valid_warehouses_with_detours(name):
+    preset = PRESETS[name]
+    grid = resolve_layout(name)
+    assert grid.layout == preset.rows
+    assert len(grid.shelves) >= 6  # shelves, not an empty floor
+    assert grid.target_cells
+    # Somewhere the shelves make the shortest path longer than the Manhattan distance.
+    assert any(
+        grid.optimal_steps(cell, t) > abs(t[0] - cell[0]) + abs(t[1] - cell[1])
+        for cell in grid.reachable
+        for t in grid.target_cells
+    )
+    assert preset.description
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_preset_time_limits_let_random_walks_finish(name):
+    grid = resolve_layout(name)
+    limit = PRESETS[name].max_episode_steps
+    assert limit == suggested_time_limit(grid)
+    assert grid.random_walk_finish_rate(limit) >= 0.98
+    assert grid.random_walk_finish_rate(limit - 100) < 0.98
+
+
+def test_suggested_time_limit_of_the_default_floor_is_its_registered_limit():
+    assert suggested_time_limit(WarehouseGrid(4, 5)) == warehouse_phys.DEFAULT_MAX_EPISODE_STEPS
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_each_preset_is_registered_in_both_worlds(name):
+    grid_id, physics_id = preset_ids(name)
+    assert (grid_id, physics_id) == (
+        f"warehouse-robot-{name}-v0",
+        f"warehouse-robot-phys-{name}-v0",
+    )
+    for env_id, cls in (
+        (grid_id, warehouse_phys.WarehouseGridEnv),
+        (physics_id, warehouse_phys.WarehousePhysicsEnv),
+    ):
+        env = gym.make(env_id)
+        assert type(env.unwrapped) is cls
+        assert env.spec.max_episode_steps == PRESETS[name].max_episode_steps
+        assert env.unwrapped.grid.layout == PRESETS[name].rows
+        rows, cols = len(PRESETS[name].rows), len(PRESETS[name].rows[0])
+        assert env.observation_space == gym.spaces.MultiDiscrete([rows, cols, rows, cols])
+
+
+def test_preset_name_recognises_only_the_presets_rows():
+    assert preset_name(PRESETS["depot"].rows) == "depot"
+    assert preset_name(list(PRESETS["maze"].rows)) == "maze"
+    assert preset_name(["S.", ".P"]) is None
+
+
+def test_unknown_preset_names_the_known_ones():
+    with pytest.raises(ValueError, match="unknown layout preset 'office'; presets: aisles, depot"):
+        resolve_layout("office")
+
+
+def test_layouts_module_imports_no_simulation_or_gui_library():
+    tree = ast.parse(Path(layouts_module.__file__).read_text())
+    imported = {
+        (node.module or "").split(".")[0]
+        for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom)
+    } | {
+        alias.name.split(".")[0]
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Import)
+        for alias in node.names
+    }
+    assert not imported & {"gymnasium", "gym", "pymunk", "pygame"}
