@@ -42,6 +42,19 @@ def main() -> None:
     save(np.concatenate(strip, axis=1), "phys_move_strip.png")
     env.close()
 
+    # The layout presets side by side, each with a package waiting.
+    frames = []
+    for name, target in (("aisles", (4, 6)), ("depot", (5, 6)), ("maze", (2, 4))):
+        env = gym.make(warehouse_phys.preset_ids(name)[0], render_mode="rgb_array", cell_px=32)
+        env.reset(options={"target": target})
+        frames.append(env.render())
+        env.close()
+    height = max(frame.shape[0] for frame in frames)
+    padded = [
+        np.pad(f, ((0, height - f.shape[0]), (0, 12), (0, 0)), constant_values=255) for f in frames
+    ]
+    save(np.concatenate(padded, axis=1)[:, :-12], "layouts.png")
+
 
 if __name__ == "__main__":
     main()
