@@ -281,3 +281,24 @@ def test_random_walk_finish_rate_agrees_with_simulated_walks():
                 finished += 1
                 break
     assert finished / walks == pytest.approx(grid.random_walk_finish_rate(20), abs=0.025)
+
+
+@given(layouts(), st.integers(0, 2**32 - 1))
+def test_layout_targets_are_drawn_from_the_allowed_cells_only(layout, seed):
+    grid = WarehouseGrid.from_layout(layout)
+    rng = np.random.default_rng(seed)
+    drawn = {grid.sample_target(rng) for _ in range(30)}
+    assert drawn <= set(grid.target_cells)
+    assert grid.start not in drawn
+    assert not drawn & grid.shelves
+
+
+def test_layout_targets_are_uniform():
+    grid = WarehouseGrid.from_layout(["S.#..", "..#.#", "....."])
+    rng = np.random.default_rng(0)
+    n = len(grid.target_cells)
+    counts = np.zeros(n)
+    index = {cell: i for i, cell in enumerate(grid.target_cells)}
+    for _ in range(n * 2000):
+        counts[index[grid.sample_target(rng)]] += 1
+    assert np.abs(counts / 2000 - 1).max() < 0.1
