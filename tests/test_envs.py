@@ -432,6 +432,7 @@ def test_invalid_layouts_are_refused_through_make(env_id, kwargs, message):
     [
         ({"start": (0, 2)}, r"options\['start'\] \(0, 2\) is a shelf"),
         ({"target": (0, 1)}, r"not a cell the target may occupy \(see grid.target_cells\)"),
+        ({"start": (2, 1)}, r"options\['start'\] \(2, 1\) is the only cell the target may"),
     ],
 )
 def test_reset_options_respect_the_layout(env_id, options, message):

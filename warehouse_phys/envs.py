@@ -210,6 +210,10 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
                 )
             if start == target:
                 raise ValueError(f"options['start'] {tuple(start)} is the target's cell")
+        elif set(self.grid.target_cells) <= {start}:
+            raise ValueError(
+                f"options['start'] {tuple(start)} is the only cell the target may occupy"
+            )
         return start, target
 
     def _checked_cell(self, name: str, value: Any) -> Cell:
