@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from warehouse_phys.render import SPRITE_NAMES
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -31,7 +33,7 @@ def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
     )  # fmt: skip
     (wheel,) = wheels.glob("warehouse_phys-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
-    for sprite in ("robot.png", "floor.png", "package.png"):
+    for sprite in SPRITE_NAMES:
         assert f"warehouse_phys/sprites/{sprite}" in names
 
     site = tmp_path / "site"
