@@ -34,28 +34,33 @@ def step_record(result):
     return obs.tolist(), reward, terminated, truncated, info["optimal_steps"]
 
 
-def run_both(actions, seed, max_episode_steps=200, **kwargs):
-    """Play ``actions`` in both worlds, resetting both when either episode ends.
+def run_both_envs(grid, phys, actions, seed=0):
+    """Play ``actions`` in both environments, resetting each when its episode ends.
 
-    Returns the two records and the largest snap error seen.
+    Returns the two records (reset states and steps) and the largest snap error seen.
     """
+    records = ([], [])
+    worst = 0.0
+    for env, record in zip((grid, phys), records, strict=True):
+        obs, info = env.reset(seed=seed)
+        record.append((obs.tolist(), info["optimal_steps"]))
+    for action in actions:
+        for env, record in zip((grid, phys), records, strict=True):
+            result = env.step(action)
+            record.append(step_record(result))
+            if env is phys:
+                worst = max(worst, result[4]["snap_error"])
+            if result[2] or result[3]:
+                obs, info = env.reset()
+                record.append((obs.tolist(), info["optimal_steps"]))
+    return records[0], records[1], worst
+
+
+def run_both(actions, seed, max_episode_steps=200, **kwargs):
+    """:func:`run_both_envs` on a grid twin and a physics twin made with ``kwargs``."""
     grid = gym.make(GRID_ID, max_episode_steps=max_episode_steps, **kwargs)
     phys = gym.make(PHYS_ID, max_episode_steps=max_episode_steps, **kwargs)
-    records = {"grid": [], "phys": []}
-    for name, env in (("grid", grid), ("phys", phys)):
-        obs, info = env.reset(seed=seed)
-        records[name].append((obs.tolist(), info["optimal_steps"]))
-    worst = 0.0
-    for action in actions:
-        results = {"grid": grid.step(action), "phys": phys.step(action)}
-        worst = max(worst, results["phys"][4]["snap_error"])
-        for name, result in results.items():
-            records[name].append(step_record(result))
-        if any(r[2] or r[3] for r in results.values()):
-            for name, env in (("grid", grid), ("phys", phys)):
-                obs, info = env.reset()
-                records[name].append((obs.tolist(), info["optimal_steps"]))
-    return records["grid"], records["phys"], worst
+    return run_both_envs(grid, phys, actions, seed)
 
 
 # ---------------------------------------------------------------- equivalence
@@ -129,22 +134,6 @@ def test_a_controller_that_overshoots_is_caught_by_the_snap_bound(monkeypatch):
     monkeypatch.undo()
     with pytest.raises(ValueError, match=r"not within the bound of 0\.02"):
         gym.make(PHYS_ID, **overshooting)
-
-
-def run_both_envs(grid, phys, actions):
-    records = ([], [])
-    worst = 0.0
-    for env, record in zip((grid, phys), records, strict=True):
-        record.append(env.reset(seed=0)[0].tolist())
-    for action in actions:
-        for env, record in zip((grid, phys), records, strict=True):
-            result = env.step(action)
-            record.append(step_record(result))
-            if env is phys:
-                worst = max(worst, result[4]["snap_error"])
-            if result[2] or result[3]:
-                record.append(env.reset()[0].tolist())
-    return records[0], records[1], worst
 
 
 def test_a_controller_too_weak_to_arrive_is_refused_when_built():
