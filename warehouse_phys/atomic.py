@@ -10,17 +10,30 @@ from pathlib import Path
 from typing import BinaryIO
 
 
+def _process_umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+#: Read once: os.umask can only be read by setting it, which is not thread-safe.
+_UMASK = _process_umask()
+
+
 def atomic_write(path: str | os.PathLike[str], write: Callable[[BinaryIO], None]) -> Path:
     """Write ``path`` through ``write(file)`` all at once, or not at all.
 
     ``write`` fills a temporary file in the same directory, which then replaces
     ``path`` in one ``os.replace``. If ``write`` raises, the temporary file is
     removed, ``path`` is left as it was (absent or the old version) and the
-    error propagates. Returns ``path`` as a :class:`~pathlib.Path`.
+    error propagates. Returns ``path`` as a :class:`~pathlib.Path`. The file
+    gets the permissions of a file opened with ``open(path, "w")``, not the
+    owner-only ones of a temporary file.
     """
     path = Path(path)
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(handle, 0o666 & ~_UMASK)
         with os.fdopen(handle, "wb") as file:
             write(file)
             file.flush()
