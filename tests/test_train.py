@@ -9,6 +9,7 @@ import time
 import gymnasium as gym
 import numpy as np
 import pytest
+from PIL import Image, ImageSequence
 
 import warehouse_phys
 from warehouse_phys import train as train_cli
@@ -26,9 +27,21 @@ def run_cli(*args, cwd):
     )
 
 
-def assert_run_folder(folder, env_id, grid=(4, 5), episodes=1000):
+def gif_frames(path):
+    """The frames of a GIF file as RGB arrays, and each one's delay in ms."""
+    with Image.open(path) as image:
+        assert image.format == "GIF"
+        frames, delays = [], []
+        for frame in ImageSequence.Iterator(image):
+            frames.append(np.asarray(frame.convert("RGB")))
+            delays.append(frame.info["duration"])
+    return frames, delays
+
+
+def assert_run_folder(folder, env_id, grid=(4, 5), episodes=1000, gif=True):
     names = sorted(p.name for p in folder.iterdir())
-    assert names == ["learning_curve.png", "qtable.npz", "summary.json"]
+    expected = ["learning_curve.png", "qtable.npz", "summary.json"]
+    assert names == sorted([*expected, "episode.gif"] if gif else expected)
     assert (folder / "learning_curve.png").read_bytes()[:8] == PNG_MAGIC
     q, metadata = load_q_table(folder / "qtable.npz")
     assert q.shape == (*grid, *grid, 4)
@@ -40,6 +53,18 @@ def assert_run_folder(folder, env_id, grid=(4, 5), episodes=1000):
     assert summary["config"]["episodes"] == episodes
     assert summary["training"]["episodes"] == episodes
     assert summary["training"]["reached_target"] + summary["training"]["truncated"] == episodes
+    if gif:
+        assert summary["files"]["episode_gif"] == "episode.gif"
+        frames, _ = gif_frames(folder / "episode.gif")
+        assert frames[0].shape == (grid[0] * 64 + 24, grid[1] * 64, 3)
+        steps = summary["gif_episode"]["steps"]
+        if env_id.startswith("warehouse-robot-phys"):  # smooth: several frames per move
+            assert len(frames) > 4 * steps
+        else:  # one jump per step
+            assert len(frames) == steps + 1
+    else:
+        assert "episode_gif" not in summary["files"]
+        assert "gif_episode" not in summary
     return q, summary
 
 
@@ -97,6 +122,40 @@ def test_quiet_prints_nothing(tmp_path):
     result = run_cli("--env", "grid", "--episodes", "50", "--quiet", "--out", "o", cwd=tmp_path)
     assert (result.returncode, result.stdout, result.stderr) == (0, "", "")
     assert (tmp_path / "o" / "qtable.npz").exists()
+
+
+def test_no_gif_leaves_the_animation_out(tmp_path):
+    result = run_cli("--env", "phys", "--episodes", "50", "--no-gif", "--out", "o", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert_run_folder(tmp_path / "o", warehouse_phys.PHYSICS_ENV_ID, episodes=50, gif=False)
+    assert (
+        result.stdout.splitlines()[-1] == "wrote o/qtable.npz, learning_curve.png and summary.json"
+    )
+
+
+def test_the_gif_replays_the_greedy_episode_of_the_seed(tmp_path):
+    assert train_cli.main(
+        ["--env", "grid", "--episodes", "300", "--seed", "5", "--quiet", "--out", str(tmp_path)]
+    ) == 0  # fmt: skip
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    q, _ = load_q_table(tmp_path / "qtable.npz")
+    env = gym.make(warehouse_phys.GRID_ENV_ID, render_mode="rgb_array")
+    obs, _ = env.reset(seed=5)
+    expected = [env.render()]
+    terminated = False
+    while not terminated:
+        obs, _, terminated, _, _ = env.step(int(q[tuple(obs)].argmax()))
+        expected.append(env.render())
+    assert summary["gif_episode"] == {
+        "seed": 5, "target": obs[2:].tolist(), "steps": len(expected) - 1, "reached_target": True
+    }  # fmt: skip
+    frames, delays = gif_frames(tmp_path / "episode.gif")
+    assert len(frames) == len(expected)
+    for frame, want in zip(frames, expected, strict=True):
+        # One palette for 256 colours: a close copy of each rendered frame, not an exact one.
+        assert np.abs(frame.astype(int) - want).mean() < 2
+    # Real time at the grid twin's 4 fps, the start held 0.5 s and the end 1 s.
+    assert delays == [750] + [250] * (len(frames) - 2) + [1250]
 
 
 def test_default_run_folders_do_not_collide(tmp_path, monkeypatch):
@@ -222,7 +281,8 @@ def test_render_watches_one_greedy_episode_in_a_window(tmp_path, monkeypatch):
     args = ["--env", "phys", "--rows", "3", "--cols", "3", "--episodes", "300", "--quiet",
             "--render", "--out", str(tmp_path / "run")]  # fmt: skip
     assert train_cli.main(args) == 0
-    assert [mode for mode, _ in made] == [None, "human"]
+    # Training, the GIF's episode, then the window.
+    assert [mode for mode, _ in made] == [None, "rgb_array", "human"]
     # The greedy episode walked straight to the target and ended there.
     assert steps[-1][2] is True
     assert len(steps) == steps[0][4]["optimal_steps"] + 1

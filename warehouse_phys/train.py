@@ -3,8 +3,10 @@
 With no arguments: 1000 episodes with the tutorial's hyper-parameters on the
 physics-backed environment, headless, with a progress bar; then the run folder
 ``runs/<env>-seed<seed>-<time>/`` receives the table (``qtable.npz``), the
-learning curve (``learning_curve.png``) and a JSON summary (``summary.json``),
-and the greedy policy is evaluated against every target and printed as a table.
+learning curve (``learning_curve.png``), an animated GIF of the greedy policy's
+episode with the same seed (``episode.gif``; ``--no-gif`` leaves it out) and a
+JSON summary (``summary.json``), and the greedy policy is evaluated against
+every target and printed as a table.
 
     python -m warehouse_phys.train --env grid --episodes 2000 --seed 3
     python -m warehouse_phys.train --eval runs/phys-seed0-20260101-120000/qtable.npz
@@ -23,16 +25,26 @@ import json
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
+from functools import partial
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import gymnasium as gym
 
 import warehouse_phys
 from warehouse_phys.atomic import atomic_write_text
-from warehouse_phys.grid import WarehouseGrid
-from warehouse_phys.layouts import PRESETS, preset_ids, suggested_time_limit
+from warehouse_phys.cli import (
+    DEFAULT_ENV,
+    ENVIRONMENTS,
+    ArgumentParser,
+    Floor,
+    UsageError,
+    add_floor_arguments,
+    bounded_int,
+    floor_from_args,
+)
+from warehouse_phys.layouts import PRESETS
 from warehouse_phys.qlearning import (
     Evaluation,
     QLearningConfig,
@@ -45,67 +57,14 @@ from warehouse_phys.qlearning import (
     table_metadata,
     train,
 )
+from warehouse_phys.recording import EpisodeRecording, record_episode
 
 PROG = "python -m warehouse_phys.train"
-#: The ``--env`` names and the environment ids they stand for.
-ENVIRONMENTS = {"phys": warehouse_phys.PHYSICS_ENV_ID, "grid": warehouse_phys.GRID_ENV_ID}
-DEFAULT_ENV = "phys"
 DEFAULT_RUNS_DIR = Path("runs")
 TABLE_FILE, CURVE_FILE, SUMMARY_FILE = "qtable.npz", "learning_curve.png", "summary.json"
-
-
-class UsageError(Exception):
-    """A bad command line or input file: reported in one line, exit status 2."""
-
-
-@dataclass(frozen=True)
-class Floor:
-    """The floor to train or evaluate on: the empty one, a preset, or a layout's rows."""
-
-    rows: int | None = None
-    cols: int | None = None
-    preset: str | None = None
-    layout: tuple[str, ...] | None = None
-    #: A short name for run folders: the preset's name or the layout file's stem.
-    label: str | None = None
-
-    def make(self, kind: str, render_mode: str | None = None) -> gym.Env:
-        """The ``kind`` ("grid" or "phys") environment on this floor, through ``gym.make``."""
-        if self.preset is not None:
-            grid_id, physics_id = preset_ids(self.preset)
-            return gym.make(physics_id if kind == "phys" else grid_id, render_mode=render_mode)
-        if self.layout is not None:
-            limit = suggested_time_limit(WarehouseGrid.from_layout(self.layout))
-            return gym.make(
-                ENVIRONMENTS[kind],
-                layout=list(self.layout),
-                render_mode=render_mode,
-                max_episode_steps=limit,
-            )
-        return gym.make(
-            ENVIRONMENTS[kind],
-            grid_rows=self.rows or 4,
-            grid_cols=self.cols or 5,
-            render_mode=render_mode,
-        )
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        raise UsageError(message)
-
-
-def _bounded_int(minimum: int, what: str) -> Any:
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
-        return value
-
-    return parse
+GIF_FILE = "episode.gif"
+#: The greedy episode in the GIF stops after this many steps, should the policy wander [steps].
+GIF_MAX_STEPS = 60
 
 
 def _fraction(low_open: bool) -> Any:
@@ -128,7 +87,7 @@ def _fraction(low_open: bool) -> Any:
 def build_parser() -> argparse.ArgumentParser:
     """The command line's argument parser."""
     defaults = QLearningConfig()
-    parser = _Parser(
+    parser = ArgumentParser(
         prog=PROG,
         description="Train tabular Q-learning on the warehouse robot, save, plot and evaluate.",
     )
@@ -140,31 +99,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--episodes",
-        type=_bounded_int(1, "a positive number of episodes"),
+        type=bounded_int(1, "a positive number of episodes"),
         help=f"training episodes (default {defaults.episodes}, or the layout preset's own)",
     )
     parser.add_argument(
         "--seed",
-        type=_bounded_int(0, "a non-negative integer seed"),
+        type=bounded_int(0, "a non-negative integer seed"),
         default=defaults.seed,
         help=f"seed of the environment and the agent (default {defaults.seed})",
     )
-    parser.add_argument(
-        "--rows",
-        type=_bounded_int(2, "at least 2 rows"),
-        help="grid rows (default 4; with --eval it must match the table)",
-    )
-    parser.add_argument(
-        "--cols",
-        type=_bounded_int(2, "at least 2 columns"),
-        help="grid columns (default 5; with --eval it must match the table)",
-    )
-    parser.add_argument(
-        "--layout",
-        metavar="NAME_OR_FILE",
-        help=f"train on a warehouse layout: a preset ({', '.join(PRESETS)}) or a text file "
-        "of rows ('.' floor, '#' shelf, 'P' package cell, 'S' start)",
-    )
+    add_floor_arguments(parser, table_note="; with --eval it must match the table")
     parser.add_argument(
         "--alpha",
         type=_fraction(low_open=True),
@@ -194,6 +138,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="evaluate the table saved at PATH instead of training",
     )
     parser.add_argument(
+        "--no-gif",
+        dest="gif",
+        action="store_false",
+        help=f"do not write {GIF_FILE}, the animated greedy episode, into the run folder",
+    )
+    parser.add_argument(
         "--quiet", action="store_true", help="print nothing on success, show no progress bar"
     )
     return parser
@@ -217,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
 # ----------------------------------------------------------------- training
 def _train(args: argparse.Namespace) -> int:
     kind = args.env or DEFAULT_ENV
-    floor = _floor_from_args(args)
+    floor = floor_from_args(args)
     episodes = args.episodes
     if episodes is None:
         episodes = PRESETS[floor.preset].training_episodes if floor.preset else 1000
@@ -239,7 +189,8 @@ def _train(args: argparse.Namespace) -> int:
     evaluation = evaluate(env, result.q)
     env.close()
 
-    _write_run(run_dir, env, result, evaluation, seconds, started)
+    episode = _greedy_episode(floor, kind, result.q, seed=args.seed) if args.gif else None
+    _write_run(run_dir, env, result, evaluation, seconds, started, episode)
     if not args.quiet:
         print(
             f"trained {config.episodes} episodes on {env_id} ({rows}x{cols}) in {seconds:.2f} s; "
@@ -247,37 +198,11 @@ def _train(args: argparse.Namespace) -> int:
             f"{int(result.truncated.sum())} were truncated"
         )
         print(evaluation.table())
-        print(f"wrote {run_dir / TABLE_FILE}, {CURVE_FILE} and {SUMMARY_FILE}")
+        written = [CURVE_FILE, *([GIF_FILE] if episode else []), SUMMARY_FILE]
+        print(f"wrote {run_dir / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     if args.render:
         _watch(floor, kind, result.q, seed=args.seed)
     return 0
-
-
-def _floor_from_args(args: argparse.Namespace) -> Floor:
-    if args.layout is None:
-        return Floor(rows=args.rows, cols=args.cols)
-    if args.rows is not None or args.cols is not None:
-        raise UsageError("--rows and --cols come from the layout; leave them out with --layout")
-    if args.layout in PRESETS:
-        return Floor(preset=args.layout, label=args.layout)
-    path = Path(args.layout)
-    if not path.is_file():
-        raise UsageError(
-            f"--layout {args.layout!r} is neither a preset ({', '.join(PRESETS)}) nor a file"
-        )
-    try:
-        lines = [line.rstrip() for line in path.read_text(encoding="utf-8").splitlines()]
-    except (OSError, UnicodeDecodeError) as error:
-        raise UsageError(f"--layout {path}: cannot be read ({error})") from None
-    while lines and not lines[-1]:
-        lines.pop()
-    while lines and not lines[0]:
-        lines.pop(0)
-    try:
-        WarehouseGrid.from_layout(lines)
-    except (TypeError, ValueError) as error:
-        raise UsageError(f"--layout {path}: {error}") from None
-    return Floor(layout=tuple(lines), label=path.stem)
 
 
 def _new_run_dir(kind: str, label: str | None, seed: int, started: time.struct_time) -> Path:
@@ -322,8 +247,9 @@ def _write_run(
     evaluation: Evaluation,
     seconds: float,
     started: time.struct_time,
+    episode: EpisodeRecording | None,
 ) -> None:
-    """The table, the learning curve and the summary, each written atomically."""
+    """The table, the learning curve, the GIF and the summary, each written atomically."""
     from warehouse_phys.plots import learning_curve_figure, save_figure
 
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -353,6 +279,15 @@ def _write_run(
         "evaluation": evaluation.to_json(),
         "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
     }
+    if episode is not None:
+        episode.animation().save(run_dir / GIF_FILE)
+        summary["files"]["episode_gif"] = GIF_FILE
+        summary["gif_episode"] = {
+            "seed": result.config.seed,
+            "target": list(episode.target),
+            "steps": episode.steps,
+            "reached_target": episode.terminated,
+        }
     atomic_write_text(run_dir / SUMMARY_FILE, json.dumps(summary, indent=2) + "\n")
 
 
@@ -399,6 +334,16 @@ def _kind_of(env_id: str) -> str:
     if spec is None or not str(spec.entry_point).startswith("warehouse_phys."):
         raise UsageError(f"--eval: the table was trained on {env_id!r}; choose --env grid or phys")
     return "phys" if str(spec.entry_point).endswith("WarehousePhysicsEnv") else "grid"
+
+
+def _greedy_episode(floor: Floor, kind: str, q: Any, *, seed: int) -> EpisodeRecording:
+    """The greedy policy's episode with ``seed``, recorded for the GIF: smooth motion
+    in the physics-backed environment, one jump per step in the grid twin."""
+    env = floor.make(kind, render_mode="rgb_array")
+    try:
+        return record_episode(env, partial(greedy_action, q), seed=seed, max_steps=GIF_MAX_STEPS)
+    finally:
+        env.close()
 
 
 def _watch(floor: Floor, kind: str, q: Any, *, seed: int) -> None:

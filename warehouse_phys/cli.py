@@ -1,0 +1,134 @@
+"""What the package's command lines share: usage errors, argument types, the floor to use.
+
+``python -m warehouse_phys.train`` and ``python -m warehouse_phys.play`` both
+pick an environment with ``--env grid|phys`` and a floor with ``--rows``,
+``--cols`` or ``--layout``; this module parses those the same way for both.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NoReturn
+
+import gymnasium as gym
+
+import warehouse_phys
+from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.layouts import PRESETS, preset_ids, suggested_time_limit
+
+#: The ``--env`` names and the environment ids they stand for.
+ENVIRONMENTS = {"phys": warehouse_phys.PHYSICS_ENV_ID, "grid": warehouse_phys.GRID_ENV_ID}
+DEFAULT_ENV = "phys"
+
+
+class UsageError(Exception):
+    """A bad command line or input file: reported in one line, exit status 2."""
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """An ``argparse`` parser that raises :class:`UsageError` instead of exiting."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(message)
+
+
+def bounded_int(minimum: int, what: str) -> Any:
+    """An argument type: an integer of at least ``minimum``, described as ``what`` in errors."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+        return value
+
+    return parse
+
+
+def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = "") -> None:
+    """Add ``--rows``, ``--cols`` and ``--layout``, read back by :func:`floor_from_args`."""
+    parser.add_argument(
+        "--rows",
+        type=bounded_int(2, "at least 2 rows"),
+        help=f"grid rows (default 4{table_note})",
+    )
+    parser.add_argument(
+        "--cols",
+        type=bounded_int(2, "at least 2 columns"),
+        help=f"grid columns (default 5{table_note})",
+    )
+    parser.add_argument(
+        "--layout",
+        metavar="NAME_OR_FILE",
+        help=f"a warehouse layout: a preset ({', '.join(PRESETS)}) or a text file "
+        "of rows ('.' floor, '#' shelf, 'P' package cell, 'S' start)",
+    )
+
+
+@dataclass(frozen=True)
+class Floor:
+    """The floor to use: the empty one, a preset, or a layout's rows."""
+
+    rows: int | None = None
+    cols: int | None = None
+    preset: str | None = None
+    layout: tuple[str, ...] | None = None
+    #: A short name for run folders: the preset's name or the layout file's stem.
+    label: str | None = None
+
+    def make(self, kind: str, render_mode: str | None = None) -> gym.Env:
+        """The ``kind`` ("grid" or "phys") environment on this floor, through ``gym.make``."""
+        if self.preset is not None:
+            grid_id, physics_id = preset_ids(self.preset)
+            return gym.make(physics_id if kind == "phys" else grid_id, render_mode=render_mode)
+        if self.layout is not None:
+            limit = suggested_time_limit(WarehouseGrid.from_layout(self.layout))
+            return gym.make(
+                ENVIRONMENTS[kind],
+                layout=list(self.layout),
+                render_mode=render_mode,
+                max_episode_steps=limit,
+            )
+        return gym.make(
+            ENVIRONMENTS[kind],
+            grid_rows=self.rows or 4,
+            grid_cols=self.cols or 5,
+            render_mode=render_mode,
+        )
+
+
+def floor_from_args(args: argparse.Namespace) -> Floor:
+    """The :class:`Floor` that ``--rows``, ``--cols`` and ``--layout`` ask for.
+
+    Raises:
+        UsageError: for ``--layout`` with ``--rows`` or ``--cols``, an unknown
+            preset, or a layout file that cannot be read or is not a valid layout.
+    """
+    if args.layout is None:
+        return Floor(rows=args.rows, cols=args.cols)
+    if args.rows is not None or args.cols is not None:
+        raise UsageError("--rows and --cols come from the layout; leave them out with --layout")
+    if args.layout in PRESETS:
+        return Floor(preset=args.layout, label=args.layout)
+    path = Path(args.layout)
+    if not path.is_file():
+        raise UsageError(
+            f"--layout {args.layout!r} is neither a preset ({', '.join(PRESETS)}) nor a file"
+        )
+    try:
+        lines = [line.rstrip() for line in path.read_text(encoding="utf-8").splitlines()]
+    except (OSError, UnicodeDecodeError) as error:
+        raise UsageError(f"--layout {path}: cannot be read ({error})") from None
+    while lines and not lines[-1]:
+        lines.pop()
+    while lines and not lines[0]:
+        lines.pop(0)
+    try:
+        WarehouseGrid.from_layout(lines)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"--layout {path}: {error}") from None
+    return Floor(layout=tuple(lines), label=path.stem)
