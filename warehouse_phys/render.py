@@ -97,6 +97,16 @@ def import_pygame() -> ModuleType:
     return pygame
 
 
+def fit_text(text: pygame.Surface, width: int) -> pygame.Surface:
+    """``text`` (a rendered line), shrunk to ``width`` pixels if it is wider: narrow
+    windows show the whole line, smaller, rather than clip it."""
+    if text.get_width() <= width:
+        return text
+    pg = import_pygame()
+    height = max(1, text.get_height() * width // text.get_width())
+    return pg.transform.smoothscale(text, (width, height))
+
+
 class WarehouseRenderer:
     """Draws warehouse frames and, in ``human`` mode, owns the window.
 
@@ -275,11 +285,9 @@ class WarehouseRenderer:
             return self._status_cache[1]
         if self._font is None:
             self._font = self._pg.font.Font(None, self.status_px)
-        text = self._font.render(status, True, STATUS_TEXT)
-        room = self.width - 2 * self._status_margin()
-        if text.get_width() > room:  # narrow grids: shrink the line rather than clip it
-            height = max(1, text.get_height() * room // text.get_width())
-            text = self._pg.transform.smoothscale(text, (room, height))
+        text = fit_text(
+            self._font.render(status, True, STATUS_TEXT), self.width - 2 * self._status_margin()
+        )
         self._status_cache = (status, text)
         return text
 

@@ -1,0 +1,245 @@
+"""``python -m warehouse_phys.play``: drive the robot yourself with the arrow keys.
+
+A window shows the warehouse and, under it, the step count, the reward of
+the last step and the episode's return. Each arrow key is one action; in the
+physics-backed environment (the default) the move plays as the body's real
+motion, in the grid twin the robot jumps. When the robot reaches the package
+or the time limit ends the episode, the next arrow key starts a new one.
+
+Keys: arrows drive, ``R`` starts a new episode, ``Escape`` (or closing the
+window) quits.
+
+    python -m warehouse_phys.play
+    python -m warehouse_phys.play --env grid --rows 6 --cols 8 --seed 3
+    python -m warehouse_phys.play --layout maze
+
+The first episode is reset with ``--seed``, the next ones continue its random
+stream, so a seed replays the same sequence of targets. Bad arguments end
+with exit status 2 and a one-line message, before any window opens.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from warehouse_phys.cli import (
+    DEFAULT_ENV,
+    ENVIRONMENTS,
+    ArgumentParser,
+    UsageError,
+    add_floor_arguments,
+    bounded_int,
+    floor_from_args,
+)
+from warehouse_phys.grid import Action
+from warehouse_phys.render import fit_text, import_pygame
+
+PROG = "python -m warehouse_phys.play"
+#: Pace of the window while waiting for a key [frames/s].
+IDLE_FPS = 30
+
+HUD_BACKGROUND = (24, 27, 31)  # RGB
+HUD_TEXT = (235, 235, 235)  # RGB
+HUD_DONE = (120, 220, 120)  # RGB: the line that says the episode is over
+HUD_LINE_PX = 22  # [px] height of one line of text under the frame
+HUD_LINES = 3
+DRIVING_KEYS = "arrows drive   R new episode   Esc quits"
+NEXT_EPISODE_KEYS = "arrows or R: next episode   Esc quits"
+
+
+class PlaySession:
+    """One environment driven from the keyboard in a pygame window.
+
+    The environment must render ``"rgb_array"`` frames: the session owns the
+    window and its events, and plays the physics-backed environment's moves
+    from :meth:`~warehouse_phys.envs.WarehousePhysicsEnv.move_frames`.
+
+    Args:
+        env: The environment, made with ``render_mode="rgb_array"``.
+        seed: Seed of the first reset; later episodes continue its stream.
+        title: The window's caption.
+    """
+
+    def __init__(self, env: gym.Env, *, seed: int | None = None, title: str = PROG) -> None:
+        if env.render_mode != "rgb_array":
+            raise ValueError(
+                f"PlaySession needs an environment made with render_mode='rgb_array', "
+                f"not {env.render_mode!r}"
+            )
+        self.env = env
+        self._pg = pg = import_pygame()
+        #: The arrow keys and the actions they stand for.
+        self.action_keys = {
+            pg.K_LEFT: Action.LEFT,
+            pg.K_DOWN: Action.DOWN,
+            pg.K_RIGHT: Action.RIGHT,
+            pg.K_UP: Action.UP,
+        }
+        self._physics = hasattr(env.unwrapped, "move_frames")
+        self._fps = float(env.metadata["render_fps"])
+        #: False once the user pressed Escape or closed the window.
+        self.running = True
+        #: Episodes started so far, the current one included.
+        self.episodes = 0
+        self.steps = 0
+        self.last_reward = 0.0
+        self.episode_return = 0.0
+        self.terminated = self.truncated = False
+        self.obs: np.ndarray | None = None
+        self.info: dict[str, Any] = {}
+        self._optimal_from_start = 0
+
+        frame = self._new_episode(seed)
+        height, width = frame.shape[:2]
+        pg.display.init()
+        pg.font.init()
+        pg.display.set_caption(title)
+        self._window = pg.display.set_mode((width, height + HUD_LINES * HUD_LINE_PX))
+        self._font = pg.font.Font(None, HUD_LINE_PX)
+        self._clock = pg.time.Clock()
+        self._frame = frame
+        self._draw()
+
+    @property
+    def episode_over(self) -> bool:
+        """Whether the current episode reached the target or its time limit."""
+        return self.terminated or self.truncated
+
+    def run(self) -> None:
+        """Handle keys and redraw until the user quits; then close the window."""
+        try:
+            while self.running:
+                for event in self._pg.event.get():
+                    self.handle(event)
+                    if not self.running:
+                        break
+                else:
+                    self._clock.tick(IDLE_FPS)
+        finally:
+            self.close()
+
+    def handle(self, event: Any) -> None:
+        """React to one pygame event: quit, a new episode, or a move."""
+        pg = self._pg
+        if event.type == pg.QUIT or (event.type == pg.KEYDOWN and event.key == pg.K_ESCAPE):
+            self.running = False
+        elif event.type == pg.KEYDOWN and event.key == pg.K_r:
+            self._frame = self._new_episode(None)
+            self._draw()
+        elif event.type == pg.KEYDOWN and event.key in self.action_keys:
+            if self.episode_over:
+                self._frame = self._new_episode(None)
+                self._draw()
+            else:
+                self.step(self.action_keys[event.key])
+
+    def step(self, action: Action) -> None:
+        """Take ``action``, playing the motion in the window, and update the counters."""
+        self.obs, reward, self.terminated, self.truncated, self.info = self.env.step(action)
+        self.steps += 1
+        self.last_reward = float(reward)
+        self.episode_return += self.last_reward
+        if self._physics:
+            # The move in real time: every frame but the last, which is before the snap.
+            for frame in self.env.unwrapped.move_frames()[:-1]:
+                self._frame = frame
+                self._draw()
+                self._clock.tick(self._fps)
+        self._frame = self.env.render()
+        self._draw()
+
+    def close(self) -> None:
+        """Close the environment and the window; safe to call twice."""
+        self.running = False
+        self.env.close()
+        if self._pg.display.get_init():
+            self._pg.display.quit()
+
+    def hud_lines(self) -> list[str]:
+        """The text under the frame: the counters, the episode's outcome, the keys."""
+        counters = (
+            f"step {self.steps}   reward {self.last_reward:g}   return {self.episode_return:g}"
+        )
+        if self.terminated:
+            extra = self.steps - self._optimal_from_start
+            verdict = "a shortest path!" if extra <= 0 else f"{extra} more than the shortest"
+            return [counters, f"Delivered in {self.steps} steps: {verdict}", NEXT_EPISODE_KEYS]
+        if self.truncated:
+            return [counters, f"Time is up after {self.steps} steps", NEXT_EPISODE_KEYS]
+        return [counters, f"episode {self.episodes}: drive to the package", DRIVING_KEYS]
+
+    # ------------------------------------------------------------------ helpers
+    def _new_episode(self, seed: int | None) -> np.ndarray:
+        self.obs, self.info = self.env.reset(seed=seed)
+        self._optimal_from_start = int(self.info["optimal_steps"])
+        self.episodes += 1
+        self.steps = 0
+        self.last_reward = self.episode_return = 0.0
+        self.terminated = self.truncated = False
+        return self.env.render()
+
+    def _draw(self) -> None:
+        pg, window = self._pg, self._window
+        pg.event.pump()  # keeps the window responsive during a move; keys stay queued
+        surface = pg.surfarray.make_surface(np.ascontiguousarray(self._frame.transpose(1, 0, 2)))
+        window.blit(surface, (0, 0))
+        top = self._frame.shape[0]
+        window.fill(HUD_BACKGROUND, (0, top, window.get_width(), HUD_LINES * HUD_LINE_PX))
+        for i, line in enumerate(self.hud_lines()):
+            colour = HUD_DONE if i == 1 and self.episode_over else HUD_TEXT
+            text = fit_text(self._font.render(line, True, colour), window.get_width() - 12)
+            window.blit(text, (6, top + i * HUD_LINE_PX + (HUD_LINE_PX - text.get_height()) // 2))
+        pg.display.flip()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line's argument parser."""
+    parser = ArgumentParser(
+        prog=PROG,
+        description="Drive the warehouse robot with the arrow keys (R: new episode, Esc: quit).",
+    )
+    parser.add_argument(
+        "--env",
+        choices=sorted(ENVIRONMENTS),
+        default=DEFAULT_ENV,
+        help=f"environment: phys ({ENVIRONMENTS['phys']}) or grid ({ENVIRONMENTS['grid']}); "
+        f"default {DEFAULT_ENV}",
+    )
+    add_floor_arguments(parser)
+    parser.add_argument(
+        "--seed",
+        type=bounded_int(0, "a non-negative integer seed"),
+        help="seed of the first episode's target (default: a new one each run)",
+    )
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    try:
+        args = build_parser().parse_args(argv)
+        floor = floor_from_args(args)
+    except UsageError as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 2
+    env = floor.make(args.env, render_mode="rgb_array")
+    try:
+        session = PlaySession(env, seed=args.seed, title=f"{PROG}: {env.spec.id}")
+    except BaseException:
+        env.close()
+        raise
+    try:
+        session.run()
+    except KeyboardInterrupt:
+        session.close()
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
