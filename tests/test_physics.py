@@ -15,6 +15,7 @@ from warehouse_phys.physics import (
     PhysicsConfig,
     PhysicsWorld,
     check_controller,
+    speed_profile,
 )
 
 DEFAULTS = PhysicsConfig()
@@ -284,3 +285,31 @@ def test_shelves_are_static_boxes_merged_along_rows():
     # Row 0, columns 2-3 and 5-6; row 2, columns 0-2 and 6: four boxes, filling their cells.
     assert boxes == [(0, 2, 3, 3), (2, 0, 4, 1), (5, 0, 7, 1), (6, 2, 7, 3)]
     assert len(static) == 4 + 4
+
+
+# --------------------------------------------------------------- speed profile
+def test_speed_profile_is_the_distance_covered_in_each_step():
+    w = world(record_path=True)
+    velocities, _ = controller_trace(w, Action.RIGHT)
+    times, speeds = speed_profile(CENTRE, w.last_path, DEFAULTS)
+    assert times == pytest.approx(DEFAULTS.dt * np.arange(1, 16))
+    # chipmunk moves a body with the velocity of the step before: the first step
+    # starts from rest, each later one covers what the body's speed then was.
+    assert speeds[0] == 0
+    assert speeds[1:] == pytest.approx(velocities[:-1], rel=1e-9, abs=1e-9)
+    assert speeds.max() <= DEFAULTS.max_speed * (1 + 1e-9)
+    assert (speeds * DEFAULTS.dt).sum() == pytest.approx(DEFAULTS.cell_size, abs=0.01)
+
+
+def test_speed_profile_is_in_metres_whatever_the_cell_size():
+    config = dataclasses.replace(DEFAULTS, cell_size=2.0, robot_radius=0.6, max_speed=12.0,
+                                 max_force=24000.0)  # fmt: skip
+    w = world(config, record_path=True)
+    w.move(Action.DOWN)
+    _, speeds = speed_profile(CENTRE, w.last_path, config)
+    assert (speeds * config.dt).sum() == pytest.approx(2.0, abs=0.02)
+
+
+def test_speed_profile_refuses_a_path_of_the_wrong_shape():
+    with pytest.raises(ValueError, match=r"path must have shape \(k, 2\), got \(3,\)"):
+        speed_profile((0, 0), np.zeros(3), DEFAULTS)

@@ -17,9 +17,11 @@ from warehouse_phys.qlearning import (
     QLearningConfig,
     QTableError,
     evaluate,
+    greedy_actions,
     load_q_table,
     new_q_table,
     save_q_table,
+    state_values,
     table_metadata,
     train,
 )
@@ -160,6 +162,41 @@ def test_progress_callback_sees_every_episode():
 def test_a_non_warehouse_environment_is_refused():
     with pytest.raises(ValueError, match="not a warehouse environment"):
         train(gym.make("FrozenLake-v1"), QLearningConfig(episodes=1))
+
+
+# ------------------------------------------------------- policies and values
+def test_trained_values_are_the_discounted_reward_of_the_shortest_path(trained):
+    env, result = trained
+    grid = env.unwrapped.grid
+    target = (3, 4)
+    values = state_values(result.q, target)
+    actions = greedy_actions(result.q, target)
+    assert values.shape == actions.shape == (4, 5)
+    assert actions.dtype == np.int64
+    assert actions[target] == -1  # the episode ends there: never updated
+    for cell in np.ndindex(4, 5):
+        if cell == target:
+            continue
+        d = grid.optimal_steps(cell, target)
+        # gamma ** (d - 1): reward 1 on arrival, discounted once per step before it.
+        assert values[cell] == pytest.approx(0.9 ** (d - 1), abs=1e-6)
+        # Every greedy action steps one cell closer.
+        assert grid.optimal_steps(grid.move(cell, Action(actions[cell])), target) == d - 1
+
+
+def test_cells_never_updated_have_no_greedy_action():
+    q = new_q_table(2, 3)
+    q[0, 1, 1, 2] = [0.0, 0.5, 0.2, 0.0]
+    q[1, 1, 1, 2] = [0.0, 0.0, -0.1, 0.0]  # updated, all non-positive: still a choice
+    assert greedy_actions(q, (1, 2)).tolist() == [[-1, 1, -1], [-1, 0, -1]]
+    assert state_values(q, (1, 2)).tolist() == [[0.0, 0.5, 0.0], [0.0, 0.0, 0.0]]
+
+
+def test_policy_maps_refuse_a_target_off_the_grid_or_a_bad_table():
+    with pytest.raises(ValueError, match=r"target \(2, 0\) is off the 2x3 grid"):
+        greedy_actions(new_q_table(2, 3), (2, 0))
+    with pytest.raises(ValueError, match=r"expected a Q-table of shape \(R, C, R, C, 4\)"):
+        state_values(np.zeros((2, 3, 4)), (0, 0))
 
 
 # ---------------------------------------------------------------- evaluation

@@ -309,6 +309,31 @@ class PhysicsWorld:
         return xy[:, ::-1].copy()
 
 
+def speed_profile(
+    start: tuple[float, float], path: np.ndarray, config: PhysicsConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """The body's speed over one recorded move.
+
+    Args:
+        start: The ``(row, col)`` the move started from, in cell units (its
+            cell, since every move starts snapped onto a centre).
+        path: The move's positions after each physics step, ``(k, 2)`` in
+            cell units, as in :attr:`PhysicsWorld.last_path`.
+        config: The configuration the move ran with (its ``dt`` and ``cell_size``).
+
+    Returns:
+        The time at the end of each physics step since the move began [s], and
+        the body's mean speed over that step [m/s]; both of shape ``(k,)``.
+    """
+    path = np.asarray(path, dtype=np.float64)
+    if path.ndim != 2 or path.shape[1] != 2:
+        raise ValueError(f"path must have shape (k, 2), got {path.shape}")
+    points = np.concatenate([np.asarray(start, dtype=np.float64)[None, :], path])
+    distances = np.linalg.norm(np.diff(points, axis=0), axis=1) * config.cell_size  # [m]
+    times = config.dt * np.arange(1, len(path) + 1)
+    return times, distances / config.dt
+
+
 def _raw_step(space: pymunk.Space) -> Callable[[float], None]:
     """``space.step`` without pymunk's Python bookkeeping, for the hot loop of a move.
 

@@ -1,16 +1,26 @@
-"""Learning-curve pictures, drawn with matplotlib's object API (no pyplot, no window)."""
+"""Pictures of training, policies and motion, drawn with matplotlib's object API.
+
+Every function returns a :class:`matplotlib.figure.Figure` with its own Agg
+canvas: no pyplot, no window, nothing global. Save one with
+:func:`save_figure`; in a notebook it shows inline after ``%matplotlib inline``.
+"""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
 from warehouse_phys.atomic import atomic_write
-from warehouse_phys.qlearning import TrainingResult
+from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.physics import PhysicsConfig
+from warehouse_phys.qlearning import TrainingResult, greedy_actions, state_values
 
 #: Episodes averaged in the rolling mean of the learning curve.
 ROLLING_WINDOW = 100
@@ -34,12 +44,38 @@ def learning_curve_figure(result: TrainingResult, title: str = "") -> Figure:
     shows each episode as a dot (1 reached, 0 truncated) and the rolling
     success rate over the same window.
     """
+    figure = _figure(figsize=(8, 5.5))
+    steps_axes, success_axes = figure.subplots(2, 1, sharex=True)
+    _draw_learning_curve(result, steps_axes, success_axes)
+    if title:
+        figure.suptitle(title)
+    return figure
+
+
+def learning_curves_figure(results: Mapping[str, TrainingResult], title: str = "") -> Figure:
+    """:func:`learning_curve_figure`'s two panels for each result, side by side.
+
+    ``results`` maps a column title (``"grid twin"``, say) to a training result;
+    the columns share their axes, so the curves compare at a glance.
+    """
+    if not results:
+        raise ValueError("results is empty: nothing to plot")
+    figure = _figure(figsize=(4.5 * len(results), 5.5))
+    axes = figure.subplots(2, len(results), sharex=True, sharey="row", squeeze=False)
+    for column, (name, result) in enumerate(results.items()):
+        _draw_learning_curve(result, axes[0, column], axes[1, column])
+        axes[0, column].set_title(name)
+        if column:
+            axes[0, column].set_ylabel("")
+            axes[1, column].set_ylabel("")
+    if title:
+        figure.suptitle(title)
+    return figure
+
+
+def _draw_learning_curve(result: TrainingResult, steps_axes: Axes, success_axes: Axes) -> None:
     episodes = np.arange(1, len(result.steps) + 1)
     window = min(ROLLING_WINDOW, len(episodes))
-    figure = Figure(figsize=(8, 5.5), layout="constrained")
-    FigureCanvasAgg(figure)
-    steps_axes, success_axes = figure.subplots(2, 1, sharex=True)
-
     steps_axes.plot(episodes, result.steps, color="0.8", linewidth=0.8, label="steps")
     steps_axes.plot(
         episodes, rolling_mean(result.steps, window), color="C0", label=f"mean of {window}"
@@ -59,8 +95,197 @@ def learning_curve_figure(result: TrainingResult, title: str = "") -> Figure:
     success_axes.set_xlabel("episode")
     success_axes.legend(loc="lower right")
     success_axes.grid(alpha=0.3)
+
+
+# ------------------------------------------------------------- frames and paths
+def frame_strips_figure(
+    strips: Mapping[str, Sequence[np.ndarray]],
+    captions: Mapping[str, Sequence[str]] | None = None,
+    *,
+    frame_inches: float = 1.6,
+) -> Figure:
+    """Rows of rendered frames: one row per entry of ``strips``, titled with its key.
+
+    Args:
+        strips: Row title to ``(H, W, 3)`` frames, left to right.
+        captions: Row title to one caption per frame (optional).
+        frame_inches: Width of one frame in the figure [in].
+    """
+    if not strips or not all(len(frames) for frames in strips.values()):
+        raise ValueError("every strip needs at least one frame")
+    captions = captions or {}
+    columns = max(len(frames) for frames in strips.values())
+    height, width = np.shape(next(iter(strips.values()))[0])[:2]
+    figure = _figure(
+        figsize=(frame_inches * columns, (frame_inches * height / width + 0.35) * len(strips))
+    )
+    axes = figure.subplots(len(strips), columns, squeeze=False)
+    for row, (name, frames) in enumerate(strips.items()):
+        labels = captions.get(name, ())
+        for column, ax in enumerate(axes[row]):
+            ax.set_axis_off()
+            if column >= len(frames):
+                continue
+            ax.imshow(frames[column], interpolation="antialiased")
+            if column < len(labels):
+                ax.set_title(labels[column], fontsize=8)
+        axes[row, 0].text(
+            -0.08, 0.5, name, transform=axes[row, 0].transAxes, rotation=90,
+            ha="right", va="center", fontsize=10,
+        )  # fmt: skip
+    return figure
+
+
+def path_figure(
+    grid: WarehouseGrid,
+    cells: np.ndarray,
+    target: tuple[int, int],
+    path: np.ndarray | None = None,
+    title: str = "",
+) -> Figure:
+    """The floor from above, the discrete cell sequence and, if given, the body's path.
+
+    Args:
+        grid: The floor (its size and shelves).
+        cells: ``(n + 1, 2)`` the robot's cell after the reset and after each step.
+        target: The package's cell.
+        path: ``(k, 2)`` the body's positions in cell units (one per physics step).
+        title: The figure's title.
+    """
+    figure = _figure(figsize=(1.0 * grid.cols + 1.5, 1.0 * grid.rows + 0.8))
+    ax = figure.subplots()
+    _draw_floor(ax, grid, target)
+    cells = np.asarray(cells, dtype=np.float64)
+    ax.plot(
+        cells[:, 1], cells[:, 0], "s--", color="C0", markersize=9, markerfacecolor="none",
+        linewidth=1, label="cells (grid twin)",
+    )  # fmt: skip
+    if path is not None:
+        path = np.asarray(path, dtype=np.float64)
+        ax.plot(
+            path[:, 1], path[:, 0], ".-", color="C3", markersize=2.5, linewidth=0.8,
+            label="body, every physics step",
+        )  # fmt: skip
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=2, fontsize=8, frameon=False)
     if title:
-        figure.suptitle(title)
+        ax.set_title(title)
+    return figure
+
+
+def speed_profile_figure(
+    times: np.ndarray, speeds: np.ndarray, config: PhysicsConfig, title: str = ""
+) -> Figure:
+    """The body's speed over one move, with the controller's speed limit and the settle phase."""
+    figure = _figure(figsize=(6.5, 3.2))
+    ax = figure.subplots()
+    settle_from = config.move_duration - config.settle_time
+    ax.axvspan(settle_from, config.move_duration, color="0.92", label="settle phase")
+    ax.axhline(config.max_speed, color="0.5", linestyle=":", label="speed limit")
+    ax.plot(times, speeds, "o-", color="C3", markersize=3, label="body speed")
+    ax.set_xlim(0, config.move_duration)
+    ax.set_ylim(0, config.max_speed * 1.15)
+    ax.set_xlabel("time since the action [s]")
+    ax.set_ylabel("speed [m/s]")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    if title:
+        ax.set_title(title)
+    return figure
+
+
+def snap_error_figure(errors: np.ndarray, bound: float, title: str = "") -> Figure:
+    """A histogram of pre-snap errors [cells] against the bound the environment promises."""
+    errors = np.asarray(errors, dtype=np.float64)
+    if errors.size == 0:
+        raise ValueError("no snap errors to plot")
+    figure = _figure(figsize=(6.5, 3.2))
+    ax = figure.subplots()
+    ax.hist(errors, bins=np.linspace(0, bound, 81), color="C0")
+    ax.axvline(bound, color="C3", linestyle="--", label=f"bound {bound:g}")
+    ax.axvline(errors.max(), color="C1", label=f"largest {errors.max():.4f}")
+    ax.set_xlim(0, bound * 1.05)
+    ax.set_xlabel("distance from the cell centre before the snap [cells]")
+    ax.set_ylabel("moves")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.set_title(title or f"{errors.size} moves")
+    return figure
+
+
+# --------------------------------------------------------- policies and values
+#: Arrow directions (d_col, d_row) on screen for LEFT, DOWN, RIGHT, UP.
+_ARROWS = np.array([(-1, 0), (0, 1), (1, 0), (0, -1)], dtype=np.float64)
+
+
+def policy_figure(q: np.ndarray, grid: WarehouseGrid, target: tuple[int, int]) -> Figure:
+    """Two panels for one target: the greedy action of each cell as an arrow, and its value.
+
+    Cells whose values were never updated (unvisited, shelves, the target) get
+    no arrow. The value is ``max_a Q``, printed in each floor cell but the target's.
+    """
+    actions = greedy_actions(q, target)
+    values = state_values(q, target)
+    figure = _figure(figsize=(2 * (0.9 * grid.cols + 0.8), 0.9 * grid.rows + 0.9))
+    policy_ax, value_ax = figure.subplots(1, 2)
+
+    _draw_floor(policy_ax, grid, target)
+    rows, cols = np.nonzero(actions >= 0)
+    arrows = _ARROWS[actions[rows, cols]]
+    policy_ax.quiver(
+        cols - 0.3 * arrows[:, 0], rows - 0.3 * arrows[:, 1], arrows[:, 0], arrows[:, 1],
+        angles="xy", scale_units="xy", scale=1 / 0.6, color="C0", width=0.012,
+    )  # fmt: skip
+    policy_ax.set_title("greedy action")
+
+    # Shelves and the target (where an episode ends, so never updated) have no value to show.
+    hidden = ~_free_mask(grid)
+    hidden[target[0], target[1]] = True
+    shown = np.ma.masked_array(values, mask=hidden)
+    image = value_ax.imshow(shown, cmap="viridis", vmin=0, vmax=max(1.0, float(values.max())))
+    for (r, c), value in np.ndenumerate(values):
+        if not hidden[r, c]:
+            colour = "white" if value < 0.6 else "black"
+            value_ax.text(c, r, f"{value:.2f}", ha="center", va="center", fontsize=8, color=colour)
+    value_ax.text(target[1], target[0], "target", ha="center", va="center", fontsize=8)
+    value_ax.set_xticks(range(grid.cols))
+    value_ax.set_yticks(range(grid.rows))
+    value_ax.set_title("value: max over actions of Q")
+    figure.colorbar(image, ax=value_ax, shrink=0.8)
+    return figure
+
+
+def _draw_floor(ax: Axes, grid: WarehouseGrid, target: tuple[int, int]) -> None:
+    """Cell borders, shelves, the start and the target on ``ax``, row 0 at the top."""
+    ax.set_xlim(-0.5, grid.cols - 0.5)
+    ax.set_ylim(grid.rows - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_xticks(range(grid.cols))
+    ax.set_yticks(range(grid.rows))
+    ax.set_xticks(np.arange(-0.5, grid.cols), minor=True)
+    ax.set_yticks(np.arange(-0.5, grid.rows), minor=True)
+    ax.grid(which="minor", color="0.8")
+    ax.tick_params(which="minor", length=0)
+    ax.set_xlabel("column")
+    ax.set_ylabel("row")
+    for r, c in grid.shelves:
+        ax.add_patch(Rectangle((c - 0.5, r - 0.5), 1, 1, color="0.55"))
+    ax.add_patch(
+        Rectangle((target[1] - 0.4, target[0] - 0.4), 0.8, 0.8, color="#c8965a", alpha=0.6)
+    )
+    ax.plot(grid.start[1], grid.start[0], "o", color="0.3", markersize=4)
+
+
+def _free_mask(grid: WarehouseGrid) -> np.ndarray:
+    mask = np.ones((grid.rows, grid.cols), dtype=bool)
+    for r, c in grid.shelves:
+        mask[r, c] = False
+    return mask
+
+
+def _figure(figsize: tuple[float, float]) -> Figure:
+    """A figure with its own Agg canvas: no pyplot, no window, no global state."""
+    figure = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(figure)
     return figure
 
 

@@ -222,6 +222,38 @@ def greedy_action(q: np.ndarray, obs: Sequence[int] | np.ndarray) -> int:
     return int(q[tuple(int(v) for v in obs)].argmax())
 
 
+def greedy_actions(q: np.ndarray, target: tuple[int, int]) -> np.ndarray:
+    """The greedy action in every cell when the package is on ``target``.
+
+    Returns an ``(R, C)`` int64 array of action values; ``-1`` marks cells whose
+    four values are all still zero (never updated: unvisited, the target itself,
+    shelves), where the greedy choice means nothing.
+    """
+    values = _target_slice(q, target)
+    actions = values.argmax(axis=-1).astype(np.int64)
+    actions[~values.any(axis=-1)] = -1
+    return actions
+
+
+def state_values(q: np.ndarray, target: tuple[int, int]) -> np.ndarray:
+    """``max_a Q(cell, target, a)`` for every cell: an ``(R, C)`` float64 array.
+
+    With reward 1 on arrival and discount ``gamma``, a cell ``d`` steps from the
+    target has the value ``gamma ** (d - 1)`` under the optimal policy; a
+    trained table approaches that.
+    """
+    return _target_slice(q, target).max(axis=-1).astype(np.float64)
+
+
+def _target_slice(q: np.ndarray, target: tuple[int, int]) -> np.ndarray:
+    if q.ndim != 5 or q.shape[:2] != q.shape[2:4] or q.shape[4] != 4:
+        raise ValueError(f"expected a Q-table of shape (R, C, R, C, 4), got {q.shape}")
+    row, col = (int(v) for v in target)
+    if not (0 <= row < q.shape[2] and 0 <= col < q.shape[3]):
+        raise ValueError(f"target {(row, col)} is off the {q.shape[2]}x{q.shape[3]} grid")
+    return q[:, :, row, col, :]
+
+
 # ------------------------------------------------------------------ evaluation
 @dataclass(frozen=True)
 class TargetResult:
