@@ -12,6 +12,9 @@ import pygame
 
 import warehouse_phys
 from warehouse_phys import Action
+from warehouse_phys.plots import learning_curve_figure, save_figure
+from warehouse_phys.qlearning import QLearningConfig, greedy_action, train
+from warehouse_phys.recording import record_episode
 
 HERE = Path(__file__).resolve().parent
 
@@ -54,6 +57,23 @@ def main() -> None:
         np.pad(f, ((0, height - f.shape[0]), (0, 12), (0, 0)), constant_values=255) for f in frames
     ]
     save(np.concatenate(padded, axis=1)[:, :-12], "layouts.png")
+
+    # What `python -m warehouse_phys.train` writes: the learning curve and the
+    # greedy episode as a GIF, in each world (seed 0 puts the package on (3, 3)).
+    env = gym.make(warehouse_phys.PHYSICS_ENV_ID)
+    result = train(env, QLearningConfig(episodes=1000, seed=0))
+    figure = learning_curve_figure(result, f"{warehouse_phys.PHYSICS_ENV_ID} 4x5, seed 0")
+    save_figure(figure, HERE / "learning_curve.png")
+    print(f"wrote {HERE / 'learning_curve.png'}")
+    for env_id, name in (
+        (warehouse_phys.PHYSICS_ENV_ID, "episode_phys.gif"),
+        (warehouse_phys.GRID_ENV_ID, "episode_grid.gif"),
+    ):
+        env = gym.make(env_id, render_mode="rgb_array", cell_px=48)
+        episode = record_episode(env, lambda obs: greedy_action(result.q, obs), seed=0)
+        episode.animation().save(HERE / name)
+        print(f"wrote {HERE / name}")
+        env.close()
 
 
 if __name__ == "__main__":
