@@ -198,7 +198,7 @@ def _train(args: argparse.Namespace) -> int:
             f"{int(result.truncated.sum())} were truncated"
         )
         print(evaluation.table())
-        written = [CURVE_FILE, *([GIF_FILE] if episode else []), SUMMARY_FILE]
+        written = [CURVE_FILE, *([GIF_FILE] if episode is not None else []), SUMMARY_FILE]
         print(f"wrote {run_dir / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     if args.render:
         _watch(floor, kind, result.q, seed=args.seed)
