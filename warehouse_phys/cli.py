@@ -49,6 +49,17 @@ def bounded_int(minimum: int, what: str) -> Any:
     return parse
 
 
+def add_env_argument(parser: argparse.ArgumentParser, *, default: str | None, note: str) -> None:
+    """Add ``--env grid|phys``; ``note`` ends its help, after the default's id."""
+    parser.add_argument(
+        "--env",
+        choices=sorted(ENVIRONMENTS),
+        default=default,
+        help=f"environment: phys ({ENVIRONMENTS['phys']}) or grid ({ENVIRONMENTS['grid']}); "
+        f"default {DEFAULT_ENV}{note}",
+    )
+
+
 def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = "") -> None:
     """Add ``--rows``, ``--cols`` and ``--layout``, read back by :func:`floor_from_args`."""
     parser.add_argument(

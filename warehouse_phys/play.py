@@ -29,9 +29,9 @@ import numpy as np
 
 from warehouse_phys.cli import (
     DEFAULT_ENV,
-    ENVIRONMENTS,
     ArgumentParser,
     UsageError,
+    add_env_argument,
     add_floor_arguments,
     bounded_int,
     floor_from_args,
@@ -203,13 +203,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Drive the warehouse robot with the arrow keys (R: new episode, Esc: quit).",
     )
-    parser.add_argument(
-        "--env",
-        choices=sorted(ENVIRONMENTS),
-        default=DEFAULT_ENV,
-        help=f"environment: phys ({ENVIRONMENTS['phys']}) or grid ({ENVIRONMENTS['grid']}); "
-        f"default {DEFAULT_ENV}",
-    )
+    add_env_argument(parser, default=DEFAULT_ENV, note="")
     add_floor_arguments(parser)
     parser.add_argument(
         "--seed",

@@ -36,10 +36,10 @@ import warehouse_phys
 from warehouse_phys.atomic import atomic_write_text
 from warehouse_phys.cli import (
     DEFAULT_ENV,
-    ENVIRONMENTS,
     ArgumentParser,
     Floor,
     UsageError,
+    add_env_argument,
     add_floor_arguments,
     bounded_int,
     floor_from_args,
@@ -91,12 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Train tabular Q-learning on the warehouse robot, save, plot and evaluate.",
     )
-    parser.add_argument(
-        "--env",
-        choices=sorted(ENVIRONMENTS),
-        help=f"environment: phys ({ENVIRONMENTS['phys']}) or grid ({ENVIRONMENTS['grid']}); "
-        f"default {DEFAULT_ENV}, or with --eval the table's own",
-    )
+    # No default here: with --eval the table's own environment is the default.
+    add_env_argument(parser, default=None, note=", or with --eval the table's own")
     parser.add_argument(
         "--episodes",
         type=bounded_int(1, "a positive number of episodes"),
