@@ -219,3 +219,16 @@ def test_bad_arguments_exit_2_with_one_line_and_no_window(args, message, capsys)
     assert err.startswith("python -m warehouse_phys.play: error: ")
     assert message in err
     assert not pygame.display.get_init()
+
+
+def test_no_display_exits_1_with_the_reason(monkeypatch, capsys):
+    def no_display(*_args, **_kwargs):
+        raise pygame.error("No available video device")
+
+    monkeypatch.setattr(pygame.display, "set_mode", no_display)
+    assert play_cli.main(["--env", "grid"]) == 1
+    _, err = capsys.readouterr()
+    assert err == (
+        "python -m warehouse_phys.play: error: cannot open a window (No available video device)\n"
+    )
+    assert not pygame.display.get_init()

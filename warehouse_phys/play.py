@@ -15,7 +15,8 @@ window) quits.
 
 The first episode is reset with ``--seed``, the next ones continue its random
 stream, so a seed replays the same sequence of targets. Bad arguments end
-with exit status 2 and a one-line message, before any window opens.
+with exit status 2 and a one-line message, before any window opens; a
+machine with no display ends with exit status 1 and says so.
 """
 
 from __future__ import annotations
@@ -222,8 +223,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
     env = floor.make(args.env, render_mode="rgb_array")
+    pg = import_pygame()
     try:
         session = PlaySession(env, seed=args.seed, title=f"{PROG}: {env.spec.id}")
+    except pg.error as error:  # no display: an SSH session, a container, a CI machine
+        env.close()
+        pg.display.quit()
+        print(f"{PROG}: error: cannot open a window ({error})", file=sys.stderr)
+        return 1
     except BaseException:
         env.close()
         raise
