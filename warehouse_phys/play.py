@@ -37,6 +37,7 @@ from warehouse_phys.cli import (
     bounded_int,
     floor_from_args,
 )
+from warehouse_phys.envs import WarehousePhysicsEnv
 from warehouse_phys.grid import Action
 from warehouse_phys.render import fit_text, import_pygame
 
@@ -81,7 +82,7 @@ class PlaySession:
             pg.K_RIGHT: Action.RIGHT,
             pg.K_UP: Action.UP,
         }
-        self._physics = hasattr(env.unwrapped, "move_frames")
+        self._physics = isinstance(env.unwrapped, WarehousePhysicsEnv)
         self._fps = float(env.metadata["render_fps"])
         #: False once the user pressed Escape or closed the window.
         self.running = True
