@@ -128,14 +128,14 @@ def test_a_move_into_a_wall_bumps_it_and_returns_to_its_own_centre(action):
 def controller_trace(w, action):
     """Run a move while recording, after each physics step, speed and joint force."""
     speeds, forces = [], []
-    step = w._step  # the move's own stepping function, wrapped to look inside
+    step, handle = w._stepping()  # the move's own stepping function, wrapped to look inside
 
-    def recording_step(dt):
-        step(dt)
+    def recording_step(space, dt):
+        step(handle, dt)
         speeds.append(abs(w.robot.velocity))
         forces.append(w.joint.impulse / dt)
 
-    w._step = recording_step
+    w._stepping = lambda: (recording_step, w.space)
     w.move(action)
     return np.array(speeds), np.array(forces)
 
@@ -189,7 +189,7 @@ def test_fast_stepping_equals_pymunks_space_step():
     actions = np.random.default_rng(3).integers(4, size=60).tolist()
     fast = world(start=(0, 0), record_path=True)
     plain = world(start=(0, 0), record_path=True)
-    plain._step = plain.space.step  # the public, fully checked stepping call
+    plain._stepping = lambda: (pymunk.Space.step, plain.space)  # the public, checked call
     assert paths(fast, actions).tobytes() == paths(plain, actions).tobytes()
 
 
@@ -313,3 +313,78 @@ def test_speed_profile_is_in_metres_whatever_the_cell_size():
 def test_speed_profile_refuses_a_path_of_the_wrong_shape():
     with pytest.raises(ValueError, match=r"path must have shape \(k, 2\), got \(3,\)"):
         speed_profile((0, 0), np.zeros(3), DEFAULTS)
+
+
+# ------------------------------------------------------------------- lifetime
+# Building and dropping worlds must never free a chipmunk space from inside another
+# space's finalizer or step: chipmunk aborts the whole process when that happens.
+# Each check runs in a fresh interpreter, so a crash fails the test instead of pytest.
+CHECK_ENV_SCRIPT = """
+import warnings, gymnasium as gym, warehouse_phys
+from gymnasium.utils.env_checker import check_env
+for env_id in ("warehouse-robot-v0", "warehouse-robot-phys-v0", "warehouse-robot-phys-maze-v0"):
+    for rm in (None, "rgb_array", "ansi"):
+        env = gym.make(env_id, render_mode=rm)
+        with warnings.catch_warnings(record=True):
+            warnings.simplefilter("always")
+            check_env(env.unwrapped, skip_render_check=False)
+print("done")
+"""
+
+GC_STRESS_SCRIPT = """
+import copy, gc, pickle
+import gymnasium as gym
+import warehouse_phys
+from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.physics import PhysicsConfig, PhysicsWorld, check_controller
+
+gc.set_threshold(1, 1, 1)  # a collection at almost every allocation
+grids = [WarehouseGrid(3, 3), WarehouseGrid.from_layout(["S.#", "...", "#.P"])]
+ids = [
+    "warehouse-robot-v0", "warehouse-robot-phys-v0",
+    "warehouse-robot-maze-v0", "warehouse-robot-phys-maze-v0",
+]
+for i in range(1000):
+    world = PhysicsWorld(grids[i % 2], PhysicsConfig(), (0, 0), record_path=i % 3 == 0)
+    world.move(i % 4)
+    del world
+    check_controller(PhysicsConfig(max_force=3000.0 + i))  # probe worlds, built and dropped
+    env = gym.make(ids[i % 4])
+    env.reset(seed=i)
+    env.step(i % 4)
+    if i % 50 == 0:
+        pickle.loads(pickle.dumps(env)).step(1)
+        copy.deepcopy(env).step(2)
+    env.reset()
+    del env
+print("done")
+"""
+
+
+@pytest.mark.slow
+def test_check_env_on_every_kind_never_crashes_in_fresh_processes(tmp_path):
+    import subprocess
+    import sys
+
+    script = tmp_path / "check_every_env.py"
+    script.write_text(CHECK_ENV_SCRIPT)
+    for _ in range(5):  # ten runs, two at a time
+        runs = [
+            subprocess.Popen(
+                [sys.executable, str(script)],
+                cwd=tmp_path,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+            for _ in range(2)
+        ]
+        for run in runs:
+            out, err = run.communicate(timeout=120)
+            assert run.returncode == 0, f"exit {run.returncode}: {err[-2000:]}"
+            assert out.strip() == "done"
+
+
+@pytest.mark.slow
+def test_worlds_and_environments_survive_garbage_collection_at_every_allocation(run_python):
+    assert run_python(GC_STRESS_SCRIPT, timeout=300).strip() == "done"

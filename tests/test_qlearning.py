@@ -403,7 +403,7 @@ def test_pickle_payloads_are_refused_and_never_run(tmp_path):
         (lambda p: write_npz(p, q=np.full((4, 5, 4, 5, 4), np.inf), metadata=good_metadata()),
          "NaN or infinite values"),
         (lambda p: write_npz(p, q=np.zeros((4, 5, 4, 5, 4), dtype="U1"), metadata=good_metadata()),
-         "expected numbers"),
+         "expected real floats"),
     ],
 )  # fmt: skip
 def test_unusable_files_are_refused_with_the_reason(tmp_path, make, message):

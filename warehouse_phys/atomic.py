@@ -10,14 +10,37 @@ from pathlib import Path
 from typing import BinaryIO
 
 
-def _process_umask() -> int:
+def current_umask() -> int:
+    """The process's umask, read now (it can change while a program runs).
+
+    Linux reports it in ``/proc/self/status``; elsewhere it can only be read
+    by setting it and setting it back, which another thread could observe.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
 
 
-#: Read once: os.umask can only be read by setting it, which is not thread-safe.
-_UMASK = _process_umask()
+#: How temporary files are named: ``.<name>.<random>.tmp`` beside ``<name>``.
+TEMPORARY_PREFIX, TEMPORARY_SUFFIX = ".", ".tmp"
+
+
+def temporary_files(folder: str | os.PathLike[str], name: str) -> list[Path]:
+    """Temporary files that :func:`atomic_write` of ``folder/name`` left behind (a
+    process killed while writing leaves one)."""
+    prefix = f"{TEMPORARY_PREFIX}{name}."
+    return sorted(
+        entry
+        for entry in Path(folder).iterdir()
+        if entry.name.startswith(prefix) and entry.name.endswith(TEMPORARY_SUFFIX)
+    )
 
 
 def atomic_write(path: str | os.PathLike[str], write: Callable[[BinaryIO], None]) -> Path:
@@ -31,9 +54,11 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[BinaryIO], None]
     owner-only ones of a temporary file.
     """
     path = Path(path)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    handle, temporary = tempfile.mkstemp(
+        prefix=f"{TEMPORARY_PREFIX}{path.name}.", suffix=TEMPORARY_SUFFIX, dir=path.parent
+    )
     try:
-        os.fchmod(handle, 0o666 & ~_UMASK)
+        os.fchmod(handle, 0o666 & ~current_umask())
         with os.fdopen(handle, "wb") as file:
             write(file)
             file.flush()

@@ -15,8 +15,8 @@ from typing import Any, NoReturn
 import gymnasium as gym
 
 import warehouse_phys
-from warehouse_phys.grid import WarehouseGrid
-from warehouse_phys.layouts import PRESETS, preset_ids, suggested_time_limit
+from warehouse_phys.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
+from warehouse_phys.layouts import PRESETS, preset_ids, resolve_layout, suggested_time_limit
 
 #: The ``--env`` names and the environment ids they stand for.
 ENVIRONMENTS = {"phys": warehouse_phys.PHYSICS_ENV_ID, "grid": warehouse_phys.GRID_ENV_ID}
@@ -34,15 +34,16 @@ class ArgumentParser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
-def bounded_int(minimum: int, what: str) -> Any:
-    """An argument type: an integer of at least ``minimum``, described as ``what`` in errors."""
+def bounded_int(minimum: int, what: str, maximum: int | None = None) -> Any:
+    """An argument type: an integer of at least ``minimum`` (and at most ``maximum``),
+    described as ``what`` in errors."""
 
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
-        if value < minimum:
+        if value < minimum or (maximum is not None and value > maximum):
             raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
         return value
 
@@ -64,13 +65,20 @@ def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = ""
     """Add ``--rows``, ``--cols`` and ``--layout``, read back by :func:`floor_from_args`."""
     parser.add_argument(
         "--rows",
-        type=bounded_int(2, "at least 2 rows"),
-        help=f"grid rows (default 4{table_note})",
+        type=bounded_int(MIN_SIDE, f"{MIN_SIDE} to {MAX_SIDE} rows", MAX_SIDE),
+        help=f"grid rows, {MIN_SIDE} to {MAX_SIDE} (default 4{table_note})",
     )
     parser.add_argument(
         "--cols",
-        type=bounded_int(2, "at least 2 columns"),
-        help=f"grid columns (default 5{table_note})",
+        type=bounded_int(MIN_SIDE, f"{MIN_SIDE} to {MAX_SIDE} columns", MAX_SIDE),
+        help=f"grid columns, {MIN_SIDE} to {MAX_SIDE} (default 5{table_note})",
+    )
+    parser.add_argument(
+        "--max-steps",
+        type=bounded_int(1, "a positive number of steps"),
+        metavar="N",
+        help="time limit of an episode (default: the floor's suggested limit, "
+        "200 on the default floor)",
     )
     parser.add_argument(
         "--layout",
@@ -82,7 +90,7 @@ def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = ""
 
 @dataclass(frozen=True)
 class Floor:
-    """The floor to use: the empty one, a preset, or a layout's rows."""
+    """The floor to use: the empty one, a preset, or a layout's rows; and its time limit."""
 
     rows: int | None = None
     cols: int | None = None
@@ -90,14 +98,34 @@ class Floor:
     layout: tuple[str, ...] | None = None
     #: A short name for run folders: the preset's name or the layout file's stem.
     label: str | None = None
+    #: The episodes' time limit; ``None`` for the floor's suggested one.
+    max_steps: int | None = None
+
+    def grid(self) -> WarehouseGrid:
+        """The world model of this floor."""
+        if self.preset is not None:
+            return resolve_layout(self.preset)
+        if self.layout is not None:
+            return WarehouseGrid.from_layout(self.layout)
+        return WarehouseGrid(self.rows or 4, self.cols or 5)
+
+    def time_limit(self) -> int:
+        """``max_steps``, or the preset's registered limit, or
+        :func:`~warehouse_phys.layouts.suggested_time_limit` of the floor."""
+        if self.max_steps is not None:
+            return self.max_steps
+        if self.preset is not None:
+            return PRESETS[self.preset].max_episode_steps
+        return suggested_time_limit(self.grid())
 
     def make(self, kind: str, render_mode: str | None = None) -> gym.Env:
         """The ``kind`` ("grid" or "phys") environment on this floor, through ``gym.make``."""
+        limit = self.time_limit()
         if self.preset is not None:
             grid_id, physics_id = preset_ids(self.preset)
-            return gym.make(physics_id if kind == "phys" else grid_id, render_mode=render_mode)
+            env_id = physics_id if kind == "phys" else grid_id
+            return gym.make(env_id, render_mode=render_mode, max_episode_steps=limit)
         if self.layout is not None:
-            limit = suggested_time_limit(WarehouseGrid.from_layout(self.layout))
             return gym.make(
                 ENVIRONMENTS[kind],
                 layout=list(self.layout),
@@ -109,6 +137,7 @@ class Floor:
             grid_rows=self.rows or 4,
             grid_cols=self.cols or 5,
             render_mode=render_mode,
+            max_episode_steps=limit,
         )
 
 
@@ -119,12 +148,13 @@ def floor_from_args(args: argparse.Namespace) -> Floor:
         UsageError: for ``--layout`` with ``--rows`` or ``--cols``, an unknown
             preset, or a layout file that cannot be read or is not a valid layout.
     """
+    max_steps = getattr(args, "max_steps", None)
     if args.layout is None:
-        return Floor(rows=args.rows, cols=args.cols)
+        return Floor(rows=args.rows, cols=args.cols, max_steps=max_steps)
     if args.rows is not None or args.cols is not None:
         raise UsageError("--rows and --cols come from the layout; leave them out with --layout")
     if args.layout in PRESETS:
-        return Floor(preset=args.layout, label=args.layout)
+        return Floor(preset=args.layout, label=args.layout, max_steps=max_steps)
     path = Path(args.layout)
     if not path.is_file():
         raise UsageError(
@@ -142,4 +172,4 @@ def floor_from_args(args: argparse.Namespace) -> Floor:
         WarehouseGrid.from_layout(lines)
     except (TypeError, ValueError) as error:
         raise UsageError(f"--layout {path}: {error}") from None
-    return Floor(layout=tuple(lines), label=path.stem)
+    return Floor(layout=tuple(lines), label=path.stem, max_steps=max_steps)

@@ -11,7 +11,7 @@ environment drives a pymunk body there and reads the cell back from it.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -19,7 +19,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from warehouse_phys.grid import Action, Cell, WarehouseGrid
+from warehouse_phys.grid import Action, Cell, WarehouseGrid, check_size
 from warehouse_phys.layouts import resolve_layout
 from warehouse_phys.physics import PhysicsConfig, PhysicsWorld, check_controller
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
@@ -78,6 +78,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
             render_fps=self.metadata["render_fps"],
             title=f"warehouse_phys: {type(self).__name__}",
         )
+        if render_mode in ("rgb_array", "human"):
+            self._renderer.check_frame_size()
 
     def step(
         self, action: int | np.integer
@@ -179,12 +181,18 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         return "" if self._last_action is None else f"Action: {self._last_action.name}"
 
     def _parse_options(self, options: dict[str, Any] | None) -> tuple[Cell, Cell | None]:
-        if not options:
+        if options is None:
             return self.grid.start, None
-        unknown = set(options) - set(_RESET_OPTIONS)
+        if not isinstance(options, Mapping):
+            raise TypeError(
+                f"reset options must be a dict or None, got {options!r} "
+                f"({type(options).__name__}); known keys: {list(_RESET_OPTIONS)}"
+            )
+        unknown = [key for key in options if key not in _RESET_OPTIONS]
         if unknown:
             raise ValueError(
-                f"unknown reset option(s) {sorted(unknown)}; known: {list(_RESET_OPTIONS)}"
+                f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
+                f"known: {list(_RESET_OPTIONS)}"
             )
         start = self.grid.start
         if options.get("start") is not None:
@@ -549,6 +557,9 @@ def _make_grid(
         return WarehouseGrid(
             4 if grid_rows is None else grid_rows, 5 if grid_cols is None else grid_cols
         )
+    for name, given in (("grid_rows", grid_rows), ("grid_cols", grid_cols)):
+        if given is not None:
+            check_size(name, given)
     grid = resolve_layout(layout)
     for name, given, actual in (
         ("grid_rows", grid_rows, grid.rows),
@@ -561,9 +572,10 @@ def _make_grid(
 
 def _checked_action(action: object) -> Action:
     """The :class:`Action` for ``action``, or a ``TypeError``/``ValueError`` naming it."""
-    is_integer = (isinstance(action, (int, np.integer)) and not isinstance(action, bool)) or (
-        isinstance(action, np.ndarray) and action.ndim == 0 and action.dtype.kind in "iu"
-    )
+    is_integer = (
+        isinstance(action, (int, np.integer))
+        and not isinstance(action, (bool, np.timedelta64))  # numpy counts durations as integers
+    ) or (isinstance(action, np.ndarray) and action.ndim == 0 and action.dtype.kind in "iu")
     if not is_integer:
         raise TypeError(
             f"invalid action {action!r} of type {type(action).__name__}: "

@@ -7,8 +7,8 @@ gymnasium, pymunk nor pygame: only numpy, for the random generator type.
 
 from __future__ import annotations
 
-from collections import deque
-from collections.abc import Sequence
+import itertools
+from collections.abc import Iterator, Sequence
 from enum import IntEnum
 from typing import NamedTuple
 
@@ -45,8 +45,16 @@ START_CELL = Cell(0, 0)
 #: Reward for standing on the target; every other step earns nothing.
 TARGET_REWARD = 1.0
 
-MIN_ROWS = 2
-MIN_COLS = 2
+#: Fewest rows and columns of a floor [cells]: the target sits outside row 0 and column 0.
+MIN_SIDE = 2
+#: Most rows and columns of a floor [cells]. The world model keeps a few objects per
+#: cell, so memory and build time grow with the area: a 512 x 512 floor builds in
+#: well under a second and holds about 100 MB.
+MAX_SIDE = 512
+
+#: Distance maps kept for :meth:`WarehouseGrid.optimal_steps`, counted in cells
+#: (about 8 bytes each): about 16 MB, whatever the floor.
+DISTANCE_CACHE_CELLS = 2**21
 
 #: The symbols of a layout's text, one character per cell.
 FLOOR, SHELF, PACKAGE, START = ".", "#", "P", "S"
@@ -76,6 +84,7 @@ class WarehouseGrid:
     """
 
     __slots__ = (
+        "_distance_cache_size",
         "_distances",
         "_free",
         "cols",
@@ -88,8 +97,8 @@ class WarehouseGrid:
     )
 
     def __init__(self, rows: int, cols: int) -> None:
-        rows = _checked_size("grid_rows", rows, MIN_ROWS)
-        cols = _checked_size("grid_cols", cols, MIN_COLS)
+        rows = check_size("grid_rows", rows)
+        cols = check_size("grid_cols", cols)
         targets = tuple(Cell(r, c) for r in range(1, rows) for c in range(1, cols))
         self._setup(rows, cols, frozenset(), START_CELL, targets, layout=None)
 
@@ -121,6 +130,11 @@ class WarehouseGrid:
         width = len(rows[0])
         if width == 0:
             raise ValueError("layout row 0 is empty")
+        if len(rows) > MAX_SIDE or width > MAX_SIDE:
+            raise ValueError(
+                f"the layout has {len(rows)} rows of {width} cells: the largest floor is "
+                f"{MAX_SIDE} x {MAX_SIDE} cells"
+            )
         for r, row in enumerate(rows):
             if len(row) != width:
                 raise ValueError(
@@ -191,15 +205,23 @@ class WarehouseGrid:
         self.target_cells = target_cells
         #: The layout's text, or ``None`` for the empty floor.
         self.layout = layout
-        self._free = [[Cell(r, c) not in shelves for c in range(cols)] for r in range(rows)]
+        self._free = [[True] * cols for _ in range(rows)]
+        for row, col in shelves:
+            self._free[row][col] = False
         self._distances: dict[Cell, list[list[int]]] = {}
+        # Each cached distance map holds one entry per cell: keep at most about
+        # DISTANCE_CACHE_CELLS entries in all, and at least a few maps.
+        self._distance_cache_size = max(4, DISTANCE_CACHE_CELLS // (rows * cols))
         #: Every cell the robot can reach from the start.
-        self.reachable = frozenset(
-            Cell(r, c)
-            for r, row in enumerate(self._distances_from(start))
-            for c, d in enumerate(row)
-            if d >= 0
-        )
+        if shelves:
+            self.reachable = frozenset(
+                Cell(r, c)
+                for r, row in enumerate(self._distances_from(start))
+                for c, d in enumerate(row)
+                if d >= 0
+            )
+        else:  # an empty floor is connected
+            self.reachable = frozenset(Cell(r, c) for r in range(rows) for c in range(cols))
 
     def __repr__(self) -> str:
         if self.layout is None:
@@ -253,6 +275,8 @@ class WarehouseGrid:
             return abs(cell[0] - target[0]) + abs(cell[1] - target[1])
         distances = self._distances.get(target)
         if distances is None:
+            if len(self._distances) >= self._distance_cache_size:
+                del self._distances[next(iter(self._distances))]  # the oldest
             distances = self._distances[Cell(*target)] = self._distances_from(target)
         steps = distances[cell[0]][cell[1]]
         if steps < 0:
@@ -261,18 +285,21 @@ class WarehouseGrid:
 
     def _distances_from(self, origin: tuple[int, int]) -> list[list[int]]:
         """Moves from ``origin`` to every cell (the same both ways); -1 where it cannot go."""
-        distances = [[-1] * self.cols for _ in range(self.rows)]
+        rows, cols, free = self.rows, self.cols, self._free
+        distances = [[-1] * cols for _ in range(rows)]
         if not self.is_free(origin):
             return distances
         distances[origin[0]][origin[1]] = 0
-        frontier = deque([(origin[0], origin[1])])
-        while frontier:
-            row, col = frontier.popleft()
-            for d_row, d_col in ACTION_DELTAS:
-                r, c = row + d_row, col + d_col
-                if self.is_free((r, c)) and distances[r][c] < 0:
-                    distances[r][c] = distances[row][col] + 1
-                    frontier.append((r, c))
+        frontier, steps = [(origin[0], origin[1])], 0
+        while frontier:  # one breadth-first layer at a time
+            steps += 1
+            reached = []
+            for row, col in frontier:
+                for r, c in ((row, col - 1), (row + 1, col), (row, col + 1), (row - 1, col)):
+                    if 0 <= r < rows and 0 <= c < cols and free[r][c] and distances[r][c] < 0:
+                        distances[r][c] = steps
+                        reached.append((r, c))
+            frontier = reached
         return distances
 
     def random_walk_finish_rate(self, steps: int) -> float:
@@ -282,6 +309,20 @@ class WarehouseGrid:
         exactly by evolving the walk's distribution over the reachable cells
         with the target made absorbing. Time limits are chosen with it.
         """
+        return next(itertools.islice(self._finish_rates(), steps, None))
+
+    def random_walk_time_limit(self, finish_rate: float, granularity: int) -> int:
+        """The fewest whole ``granularity`` steps within which a uniformly random walk
+        reaches the target with probability at least ``finish_rate`` (see
+        :meth:`random_walk_finish_rate`). The cost grows with the cube of the
+        number of reachable cells: meant for small floors."""
+        for steps, rate in enumerate(self._finish_rates()):
+            if steps and steps % granularity == 0 and rate >= finish_rate:
+                return steps
+        raise AssertionError("unreachable: the rates never end")  # pragma: no cover
+
+    def _finish_rates(self) -> Iterator[float]:
+        """The chance of having reached the target after 0, 1, 2, ... random actions."""
         cells = sorted(self.reachable)
         index = {cell: i for i, cell in enumerate(cells)}
         transition = np.zeros((len(cells), len(cells)))
@@ -293,10 +334,10 @@ class WarehouseGrid:
         alive = np.zeros((len(targets), len(cells)))
         alive[:, index[self.start]] = 1.0
         rows = np.arange(len(targets))
-        for _ in range(steps):
+        while True:
+            yield float(1.0 - alive.sum(axis=1).mean())
             alive = alive @ transition
             alive[rows, targets] = 0.0
-        return float(1.0 - alive.sum(axis=1).mean())
 
     @staticmethod
     def outcome(cell: tuple[int, int], target: tuple[int, int]) -> tuple[float, bool]:
@@ -306,12 +347,22 @@ class WarehouseGrid:
         return 0.0, False
 
 
-def _checked_size(name: str, value: object, minimum: int) -> int:
+def check_size(name: str, value: object) -> int:
+    """``value`` as a number of rows or columns, or a ``TypeError``/``ValueError`` naming ``name``.
+
+    A floor has at least :data:`MIN_SIDE` rows and columns (the target is placed
+    outside row 0 and column 0) and at most :data:`MAX_SIDE`.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
-    if value < minimum:
+    if value < MIN_SIDE:
         raise ValueError(
-            f"{name} must be at least {minimum}, got {value}: the target is placed in rows "
+            f"{name} must be at least {MIN_SIDE}, got {value}: the target is placed in rows "
             "1..R-1 and columns 1..C-1, so a grid needs at least 2 rows and 2 columns"
+        )
+    if value > MAX_SIDE:
+        raise ValueError(
+            f"{name} must be at most {MAX_SIDE}, got {value}: the largest floor is "
+            f"{MAX_SIDE} x {MAX_SIDE} cells"
         )
     return int(value)

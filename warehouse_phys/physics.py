@@ -33,11 +33,10 @@ the renderer takes.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import pymunk
@@ -222,7 +221,6 @@ class PhysicsWorld:
         space.add(control, joint)
 
         self.space = space
-        self._step = _raw_step(space)
         self.robot = robot
         self.robot_shape = shape
         self.control = control
@@ -279,16 +277,33 @@ class PhysicsWorld:
 
     def _advance(self, steps: int) -> tuple[float, float]:
         """Run ``steps`` physics steps, recording the path if asked; the body's final ``(x, y)``."""
-        step, dt, robot = self._step, self._dt, self.robot
+        step, space = self._stepping()
+        dt, robot = self._dt, self.robot
         if self.record_path:
             path = self._path
             for _ in range(steps):
-                step(dt)
+                step(space, dt)
                 path.append(robot.position)
             return path[-1]
         for _ in range(steps):
-            step(dt)
+            step(space, dt)
         return robot.position
+
+    def _stepping(self) -> tuple[Callable[[Any, float], None], Any]:
+        """The function that advances the space by one ``dt``, and what it takes first.
+
+        chipmunk's ``cpSpaceStep`` on the space's C handle when pymunk exposes
+        it, else ``pymunk.Space.step`` on the space. The handle is read from the
+        space at each call and held only by the caller's frame while the world,
+        hence its space, is alive: nothing outside the ``Space`` object keeps it,
+        so the C space is freed with its ``Space`` and never from another
+        object's finalizer (which chipmunk aborts on while a space is locked).
+        Tests replace this method to look inside a move.
+        """
+        handle = getattr(self.space, "_space", None)
+        if _CP_SPACE_STEP is None or handle is None:  # pragma: no cover - pymunk internals moved
+            return pymunk.Space.step, self.space
+        return _CP_SPACE_STEP, handle
 
     @property
     def last_path(self) -> np.ndarray:
@@ -334,25 +349,24 @@ def speed_profile(
     return times, distances / config.dt
 
 
-def _raw_step(space: pymunk.Space) -> Callable[[float], None]:
-    """``space.step`` without pymunk's Python bookkeeping, for the hot loop of a move.
+def _chipmunk_space_step() -> Callable[[Any, float], None] | None:
+    """chipmunk's ``cpSpaceStep``, or ``None`` if this pymunk does not expose it.
 
-    ``Space.step`` wraps chipmunk's ``cpSpaceStep`` in queues and checks that
-    matter only while bodies are being added or removed or collision callbacks
-    run; a built world has none of those. Calling the C function directly
-    halves the cost of a physics step (about 0.7 against 1.5 microseconds on
-    the development machine), which is most of the cost of an action. If a
-    pymunk release moves these internals, this falls back to ``space.step``;
-    a test checks that both give bit-identical paths.
+    ``Space.step`` wraps it in queues and checks that matter only while bodies
+    are being added or removed or collision callbacks run; a built world has
+    none of those. Calling the C function directly halves the cost of a
+    physics step (about 0.7 against 1.4 microseconds on the development
+    machine), which is most of the cost of an action. A test checks that both
+    give bit-identical paths.
     """
     try:
         from pymunk._chipmunk import lib
+    except ImportError:  # pragma: no cover - depends on pymunk's internals
+        return None
+    return getattr(lib, "cpSpaceStep", None)
 
-        handle = space._space
-        step = lib.cpSpaceStep
-    except (ImportError, AttributeError):  # pragma: no cover - depends on pymunk's internals
-        return space.step
-    return functools.partial(step, handle)
+
+_CP_SPACE_STEP = _chipmunk_space_step()
 
 
 def _box(

@@ -39,7 +39,7 @@ from warehouse_phys.cli import (
 )
 from warehouse_phys.envs import WarehousePhysicsEnv
 from warehouse_phys.grid import Action
-from warehouse_phys.render import fit_text, import_pygame
+from warehouse_phys.render import NoDisplayError, check_display, fit_text, import_pygame
 
 PROG = "python -m warehouse_phys.play"
 #: Pace of the window while waiting for a key [frames/s].
@@ -96,9 +96,11 @@ class PlaySession:
         self.info: dict[str, Any] = {}
         self._optimal_from_start = 0
 
+        check_display()
         frame = self._new_episode(seed)
         height, width = frame.shape[:2]
         pg.display.init()
+        check_display(pg)
         pg.font.init()
         pg.display.set_caption(title)
         self._window = pg.display.set_mode((width, height + HUD_LINES * HUD_LINE_PX))
@@ -227,7 +229,12 @@ def main(argv: list[str] | None = None) -> int:
     pg = import_pygame()
     try:
         session = PlaySession(env, seed=args.seed, title=f"{PROG}: {env.spec.id}")
-    except pg.error as error:  # no display: an SSH session, a container, a CI machine
+    except NoDisplayError as error:  # an SSH session, a container, a CI machine
+        env.close()
+        pg.display.quit()
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 1
+    except pg.error as error:  # SDL could not open the window after all
         env.close()
         pg.display.quit()
         print(f"{PROG}: error: cannot open a window ({error})", file=sys.stderr)

@@ -26,9 +26,8 @@ loading a file can never run code.
 from __future__ import annotations
 
 import json
+import math
 import os
-import zipfile
-import zlib
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -38,8 +37,24 @@ import gymnasium as gym
 import numpy as np
 
 from warehouse_phys.atomic import atomic_write
-from warehouse_phys.grid import Cell, WarehouseGrid
-from warehouse_phys.layouts import preset_name
+from warehouse_phys.grid import MAX_SIDE, Cell, WarehouseGrid
+from warehouse_phys.layouts import PRESETS, preset_ids, preset_name
+from warehouse_phys.npzfile import ArchiveError, NpzReader, to_array
+
+#: Largest metadata string read from a table file [bytes].
+METADATA_MAX_BYTES = 2**20
+#: The environments a table may name: the package's ids and, for a table trained on
+#: an environment made without ``gym.make``, its class names.
+_TABLE_ENV_IDS = frozenset(
+    {
+        "warehouse-robot-v0",
+        "warehouse-robot-phys-v0",
+        "WarehouseGridEnv",
+        "WarehousePhysicsEnv",
+        *(env_id for name in PRESETS for env_id in preset_ids(name)),
+    }
+)
+_PRESET_OF_ID = {env_id: name for name in PRESETS for env_id in preset_ids(name)}
 
 #: Identifies our archives; bumped if their layout ever changes.
 TABLE_FORMAT = "warehouse_phys.qtable"
@@ -60,6 +75,47 @@ _METADATA_FIELDS: dict[str, type | tuple[type, ...]] = {
     "layout": (list, type(None)),
     "layout_name": (str, type(None)),
 }
+
+
+#: Memory a training run may take for its Q-table and its per-episode records [bytes].
+TRAINING_MEMORY_BUDGET = 2 * 2**30
+#: Memory of one episode's records [bytes]: steps, return and epsilon (8 bytes each),
+#: whether it reached the target and whether it was truncated (1 byte each).
+RECORD_BYTES_PER_EPISODE = 26
+
+
+def table_bytes(rows: int, cols: int) -> int:
+    """Memory of the float64 Q-table of a ``rows`` x ``cols`` floor [bytes]."""
+    return rows * cols * rows * cols * 4 * 8
+
+
+def check_training_memory(rows: int, cols: int, episodes: int) -> None:
+    """Refuse a run whose table and records would need more than the budget.
+
+    Raises:
+        ValueError: naming the sizes, if the Q-table of a ``rows`` x ``cols``
+            floor plus the records of ``episodes`` episodes exceed
+            :data:`TRAINING_MEMORY_BUDGET`.
+    """
+    table = table_bytes(rows, cols)
+    records = episodes * RECORD_BYTES_PER_EPISODE
+    if table + records > TRAINING_MEMORY_BUDGET:
+        raise ValueError(
+            f"a {rows}x{cols} floor needs a Q-table of {_size(table)} and {episodes} episodes "
+            f"need {_size(records)} of records, more than the "
+            f"{_size(TRAINING_MEMORY_BUDGET)} a training run may take; "
+            "train on a smaller floor or fewer episodes"
+        )
+
+
+def _size(n_bytes: int) -> str:
+    """``n_bytes`` for people: bytes, KiB, MiB, GiB or TiB."""
+    value = float(n_bytes)
+    for unit in ("bytes", "KiB", "MiB", "GiB"):
+        if value < 1024:
+            return f"{n_bytes} bytes" if unit == "bytes" else f"{value:.1f} {unit}"
+        value /= 1024
+    return f"{value:,.1f} TiB"
 
 
 class QTableError(ValueError):
@@ -126,7 +182,12 @@ class TrainingResult:
 
 
 def new_q_table(rows: int, cols: int) -> np.ndarray:
-    """An all-zero float64 Q-table for a ``rows`` x ``cols`` floor: shape ``(R, C, R, C, 4)``."""
+    """An all-zero float64 Q-table for a ``rows`` x ``cols`` floor: shape ``(R, C, R, C, 4)``.
+
+    Raises:
+        ValueError: if the table alone would exceed :data:`TRAINING_MEMORY_BUDGET`.
+    """
+    check_training_memory(rows, cols, 0)
     return np.zeros((rows, cols, rows, cols, 4), dtype=np.float64)
 
 
@@ -157,10 +218,13 @@ def train(
 
     Raises:
         ValueError: if ``env`` is not a warehouse environment with a 4-integer
-            observation and 4 actions, or ``q`` does not fit its grid.
+            observation and 4 actions, ``q`` does not fit its grid, or the
+            table and the per-episode records would exceed
+            :data:`TRAINING_MEMORY_BUDGET` (checked before anything is allocated).
     """
     config = config or QLearningConfig()
     rows, cols = _grid_size(env)
+    check_training_memory(rows, cols, config.episodes)
     if q is None:
         q = new_q_table(rows, cols)
     else:
@@ -173,7 +237,7 @@ def train(
     returns = np.zeros(episodes, dtype=np.float64)
     reached = np.zeros(episodes, dtype=bool)
     truncated_episodes = np.zeros(episodes, dtype=bool)
-    epsilons = np.array([config.epsilon(i) for i in range(episodes)])
+    epsilons = np.maximum(1.0 - np.arange(episodes) / episodes, 0.0)  # config.epsilon(i)
 
     for episode in range(episodes):
         obs, _ = env.reset(seed=config.seed) if episode == 0 else env.reset()
@@ -435,47 +499,64 @@ def load_q_table(
     try:
         with path.open("rb") as file:
             magic = file.read(4)
+            if magic[:1] == b"\x80":
+                raise QTableError(
+                    f"{path}: holds pickled data, which is never loaded; expected an .npz"
+                )
+            if magic != b"PK\x03\x04":
+                raise QTableError(f"{path}: not an .npz archive")
+            file.seek(0)
+            with NpzReader(file) as archive:
+                for name in ("q", "metadata"):
+                    if name not in archive.names:
+                        raise QTableError(f"{path}: has no {name!r} array; not a saved Q-table")
+                metadata = _read_metadata(archive, where=str(path))
+                grid = (metadata["grid_rows"], metadata["grid_cols"])
+                if (rows, cols) != (None, None) and (rows, cols) != grid:
+                    raise QTableError(
+                        f"{path}: the table is for a {grid[0]}x{grid[1]} grid, not {rows}x{cols}"
+                    )
+                q = _read_table(archive, *grid, where=str(path))
+    except ArchiveError as error:
+        raise QTableError(f"{path}: {error}") from None
     except OSError as error:
-        raise QTableError(f"{path}: cannot be read ({error.strerror})") from None
-    if magic[:1] == b"\x80":
-        raise QTableError(f"{path}: holds pickled data, which is never loaded; expected an .npz")
-    if magic != b"PK\x03\x04":
-        raise QTableError(f"{path}: not an .npz archive")
-    try:
-        # Our own handle, so that the file is closed even when numpy gives up half way.
-        with path.open("rb") as file, np.load(file, allow_pickle=False) as archive:
-            names = set(archive.files)
-            for name in ("q", "metadata"):
-                if name not in names:
-                    raise QTableError(f"{path}: has no {name!r} array; not a saved Q-table")
-            q = archive["q"]
-            text = archive["metadata"]
-    except QTableError:
-        raise
-    except ValueError as error:
-        if "allow_pickle" in str(error):
-            raise QTableError(
-                f"{path}: holds an object array, which needs pickle and is never loaded"
-            ) from None
-        raise QTableError(f"{path}: truncated or corrupt ({error})") from None
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, KeyError) as error:
-        raise QTableError(f"{path}: truncated or corrupt ({error})") from None
+        raise QTableError(f"{path}: cannot be read ({error.strerror or error})") from None
+    return q, metadata
 
-    if text.dtype.kind != "U" or text.shape != ():
-        raise QTableError(f"{path}: metadata is not a JSON string")
+
+def _read_metadata(archive: NpzReader, *, where: str) -> dict[str, Any]:
+    """The metadata of an archive, read within :data:`METADATA_MAX_BYTES` and checked."""
+    header, data = archive.read("metadata", max_data_bytes=METADATA_MAX_BYTES)
+    if header.dtype.kind != "U" or header.shape != ():
+        raise QTableError(f"{where}: metadata is not a JSON string")
+    text = str(to_array(header, data)[()])
     try:
-        metadata = json.loads(str(text))
-    except json.JSONDecodeError as error:
-        raise QTableError(f"{path}: metadata is not valid JSON ({error})") from None
-    _check_metadata(metadata, where=str(path))
-    _check_table(q, metadata["grid_rows"], metadata["grid_cols"], where=str(path))
-    grid = (metadata["grid_rows"], metadata["grid_cols"])
-    if (rows, cols) != (None, None) and (rows, cols) != grid:
+        metadata = json.loads(text)
+    except (ValueError, RecursionError) as error:  # JSONDecodeError, huge numbers, deep nesting
+        reason = "nested too deeply" if isinstance(error, RecursionError) else error
+        raise QTableError(f"{where}: metadata is not valid JSON ({reason})") from None
+    _check_metadata(metadata, where=where)
+    return metadata
+
+
+def _read_table(archive: NpzReader, rows: int, cols: int, *, where: str) -> np.ndarray:
+    """The table of an archive for a ``rows`` x ``cols`` grid: real floats, read within
+    the size such a table has, as float64, finite."""
+    expected = (rows, cols, rows, cols, 4)
+    widest = np.dtype(np.longdouble).itemsize
+    header, data = archive.read("q", max_data_bytes=math.prod(expected) * widest)
+    if header.dtype.kind != "f":
+        raise QTableError(f"{where}: table has dtype {header.dtype}, expected real floats")
+    if header.shape != expected:
         raise QTableError(
-            f"{path}: the table is for a {metadata['grid_rows']}x{metadata['grid_cols']} grid, "
-            f"not {rows}x{cols}"
+            f"{where}: table shape {header.shape} does not match its {rows}x{cols} grid "
+            f"(expected {expected})"
         )
-    return q.astype(np.float64, copy=False), metadata
+    with np.errstate(over="ignore"):  # a long double too large for float64 becomes inf: refused
+        q = to_array(header, data).astype(np.float64)
+    if not np.isfinite(q).all():
+        raise QTableError(f"{where}: table holds NaN or infinite values")
+    return q
 
 
 def _check_metadata(metadata: Any, *, where: str) -> None:
@@ -487,21 +568,46 @@ def _check_metadata(metadata: Any, *, where: str) -> None:
             raise error(f"{where}: metadata has no {name!r}")
         value = metadata[name]
         if isinstance(value, bool) or not isinstance(value, kind):
-            raise error(f"{where}: metadata {name!r} has the wrong type: {value!r}")
+            raise error(f"{where}: metadata {name!r} has the wrong type: {_short(value)}")
     if metadata["format"] != TABLE_FORMAT:
-        raise error(f"{where}: not a {TABLE_FORMAT} file (format {metadata['format']!r})")
+        raise error(f"{where}: not a {TABLE_FORMAT} file (format {_short(metadata['format'])})")
     if metadata["format_version"] != TABLE_FORMAT_VERSION:
         raise error(
-            f"{where}: format version {metadata['format_version']} is not supported "
+            f"{where}: format version {_short(metadata['format_version'])} is not supported "
             f"(this version reads {TABLE_FORMAT_VERSION})"
         )
+    for name, low, high in (
+        ("grid_rows", 1, MAX_SIDE),
+        ("grid_cols", 1, MAX_SIDE),
+        ("episodes", 1, None),
+        ("seed", 0, None),
+        ("alpha", 0, 1),
+        ("gamma", 0, 1),
+    ):
+        value = metadata[name]
+        if (
+            (isinstance(value, float) and not math.isfinite(value))
+            or value < low
+            or (high is not None and value > high)
+            or (name == "alpha" and value == 0)
+        ):
+            raise error(f"{where}: metadata {name!r} is out of range: {_short(value)}")
     grid = (metadata["grid_rows"], metadata["grid_cols"])
-    if metadata["layout"] is None:
+    env_id, layout, layout_name = metadata["env_id"], metadata["layout"], metadata["layout_name"]
+    if env_id not in _TABLE_ENV_IDS:
+        raise error(f"{where}: metadata 'env_id' {_short(env_id)} is not a warehouse environment")
+    if layout is None:
         if min(grid) < 2:
             raise error(f"{where}: grid {grid[0]}x{grid[1]} is smaller than 2x2")
+        if layout_name is not None:
+            raise error(
+                f"{where}: metadata names the layout {_short(layout_name)} but holds no layout"
+            )
+        if env_id in _PRESET_OF_ID:
+            raise error(f"{where}: metadata 'env_id' {env_id} is a preset's, but holds no layout")
         return
     try:
-        layout_grid = WarehouseGrid.from_layout(metadata["layout"])
+        layout_grid = WarehouseGrid.from_layout(layout)
     except (TypeError, ValueError) as problem:
         raise error(f"{where}: metadata 'layout' is not a valid layout: {problem}") from None
     if (layout_grid.rows, layout_grid.cols) != grid:
@@ -509,6 +615,22 @@ def _check_metadata(metadata: Any, *, where: str) -> None:
             f"{where}: metadata 'layout' is {layout_grid.rows}x{layout_grid.cols}, "
             f"not the {grid[0]}x{grid[1]} grid it names"
         )
+    if layout_name != preset_name(layout):
+        actual = preset_name(layout)
+        raise error(
+            f"{where}: metadata 'layout_name' is {_short(layout_name)}, but its layout is "
+            + (f"the preset {actual!r}" if actual else "not a preset's")
+        )
+    if env_id in _PRESET_OF_ID and _PRESET_OF_ID[env_id] != layout_name:
+        raise error(
+            f"{where}: metadata 'env_id' {env_id} does not match its layout {_short(layout_name)}"
+        )
+
+
+def _short(value: Any) -> str:
+    """``repr(value)``, cut to a length that fits a one-line message."""
+    text = repr(value) if not isinstance(value, int) or abs(value) < 10**30 else "a huge number"
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _check_table(q: np.ndarray, rows: int, cols: int, *, where: str) -> None:

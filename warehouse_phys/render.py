@@ -13,6 +13,7 @@ with ``render_mode=None`` (or ``"ansi"``) never loads it.
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Collection, Iterable, Sequence
 from pathlib import Path
 from types import ModuleType
@@ -34,6 +35,11 @@ SPRITE_DIRS: tuple[Path, ...] = (
 
 DEFAULT_CELL_PX = 64  # [px] side of one floor cell on screen
 MIN_CELL_PX = 16  # [px] below this the status font no longer fits a 2-column grid
+
+#: The largest frame the renderer draws [px]: pygame and SDL cannot hold surfaces
+#: much wider or taller, and an RGB array of this many pixels takes 96 MiB.
+MAX_FRAME_SIDE_PX = 16384
+MAX_FRAME_PIXELS = 2**25
 
 STATUS_BACKGROUND = (38, 42, 48)  # RGB
 STATUS_TEXT = (235, 235, 235)  # RGB
@@ -97,6 +103,48 @@ def import_pygame() -> ModuleType:
     return pygame
 
 
+class NoDisplayError(RuntimeError):
+    """There is no display to open a window on; the message says how to get one."""
+
+
+#: SDL's video drivers that draw nowhere a person can see.
+_INVISIBLE_DRIVERS = ("offscreen", "dummy", "evdev")
+_NO_DISPLAY_HELP = (
+    "run it in a desktop session, forward one with `ssh -X`, or start a virtual one "
+    "with `xvfb-run`; rgb_array rendering needs no display"
+)
+
+
+def check_display(pg: ModuleType | None = None) -> None:
+    """Refuse to open a window that nobody could see.
+
+    With no ``DISPLAY`` or ``WAYLAND_DISPLAY`` on Linux and the BSDs, SDL falls
+    back to its off-screen driver and a window would silently go nowhere. Given
+    ``pg`` (pygame with its display initialised), the driver SDL picked is
+    checked too. Setting ``SDL_VIDEODRIVER`` (``dummy`` in tests, say) is taken
+    as the user's choice and always allowed.
+
+    Raises:
+        NoDisplayError: saying there is no display and how to get one.
+    """
+    if os.environ.get("SDL_VIDEODRIVER"):
+        return
+    if sys.platform.startswith(("linux", "freebsd", "openbsd", "netbsd")) and not (
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    ):
+        raise NoDisplayError(
+            f"cannot open a window: there is no display (DISPLAY and WAYLAND_DISPLAY are "
+            f"unset); {_NO_DISPLAY_HELP}"
+        )
+    if pg is not None and pg.display.get_init():
+        driver = pg.display.get_driver()
+        if driver in _INVISIBLE_DRIVERS:
+            raise NoDisplayError(
+                f"cannot open a window: SDL found no display and chose its {driver!r} "
+                f"driver, which shows nothing; {_NO_DISPLAY_HELP}"
+            )
+
+
 def fit_text(text: pygame.Surface, width: int) -> pygame.Surface:
     """``text`` (a rendered line), shrunk to ``width`` pixels if it is wider: narrow
     windows show the whole line, smaller, rather than clip it."""
@@ -142,6 +190,11 @@ class WarehouseRenderer:
         self.status_px = max(20, self.cell_px * 3 // 8)  # [px] height of the status line
         self.width = cols * self.cell_px
         self.height = rows * self.cell_px + self.status_px
+        #: Whether frames of this size can be drawn; see :meth:`check_frame_size`.
+        self.frame_too_large = (
+            max(self.width, self.height) > MAX_FRAME_SIDE_PX
+            or self.width * self.height > MAX_FRAME_PIXELS
+        )
         #: True once the user closed the window or pressed Escape: :meth:`show`
         #: then draws nothing more, and the host process carries on.
         self.closed_by_user = False
@@ -155,6 +208,41 @@ class WarehouseRenderer:
         self._status_cache: tuple[str, pygame.Surface] | None = None
         self._window: pygame.Surface | None = None
         self._clock: Any = None
+
+    def check_frame_size(self) -> None:
+        """Refuse, with a message naming the size, frames too large to draw.
+
+        Raises:
+            ValueError: if a frame would be wider or taller than
+                :data:`MAX_FRAME_SIDE_PX` or hold more than :data:`MAX_FRAME_PIXELS`.
+        """
+        if self.frame_too_large:
+            raise ValueError(
+                f"a {self.rows}x{self.cols} floor at cell_px={self.cell_px} makes frames of "
+                f"{self.width}x{self.height} pixels, more than can be drawn (at most "
+                f"{MAX_FRAME_SIDE_PX} pixels a side and {MAX_FRAME_PIXELS} in all); "
+                f"lower cell_px (at least {MIN_CELL_PX}) or render a smaller floor"
+            )
+
+    def __getstate__(self) -> dict[str, Any]:
+        """What a copy or a pickle keeps: the settings, not pygame's surfaces or window.
+
+        A copied renderer loads its sprites again when it first draws, and a
+        copy of a ``human`` environment opens its own window when it first shows.
+        """
+        state = self.__dict__.copy()
+        state.update(
+            _pg=None,
+            _floor=None,
+            _robot=None,
+            _package=None,
+            _canvas=None,
+            _font=None,
+            _status_cache=None,
+            _window=None,
+            _clock=None,
+        )
+        return state
 
     # ------------------------------------------------------------------ drawing
     def draw(
@@ -216,7 +304,9 @@ class WarehouseRenderer:
         pg = self._ensure_pygame()
         if self._window is None or pg.display.get_surface() is not self._window:
             # First frame, or another environment's close() shut the shared display down.
+            check_display()
             pg.display.init()
+            check_display(pg)
             pg.display.set_caption(self.title)
             self._window = pg.display.set_mode((self.width, self.height))
             self._clock = pg.time.Clock()
@@ -243,6 +333,7 @@ class WarehouseRenderer:
 
     # ------------------------------------------------------------------ helpers
     def _ensure_pygame(self) -> Any:
+        self.check_frame_size()
         if self._pg is None:
             self._pg = import_pygame()
         pg = self._pg

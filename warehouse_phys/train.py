@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from dataclasses import asdict
@@ -50,6 +49,7 @@ from warehouse_phys.qlearning import (
     QLearningConfig,
     QTableError,
     TrainingResult,
+    check_training_memory,
     evaluate,
     greedy_action,
     load_q_table,
@@ -58,11 +58,15 @@ from warehouse_phys.qlearning import (
     train,
 )
 from warehouse_phys.recording import EpisodeRecording, record_episode
+from warehouse_phys.render import NoDisplayError, check_display
+from warehouse_phys.runfolder import RunFolder, RunFolderError, RunWriteError
 
 PROG = "python -m warehouse_phys.train"
 DEFAULT_RUNS_DIR = Path("runs")
 TABLE_FILE, CURVE_FILE, SUMMARY_FILE = "qtable.npz", "learning_curve.png", "summary.json"
 GIF_FILE = "episode.gif"
+#: Every file a run may write into its folder.
+RUN_FILES = (TABLE_FILE, CURVE_FILE, GIF_FILE, SUMMARY_FILE)
 #: The greedy episode in the GIF stops after this many steps, should the policy wander [steps].
 GIF_MAX_STEPS = 60
 
@@ -123,6 +127,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="run folder to write (default runs/<env>-seed<seed>-<time>)",
     )
     parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="let --out name a folder that holds an earlier run, whose files are replaced",
+    )
+    parser.add_argument(
         "--render",
         action="store_true",
         help="afterwards, watch one greedy episode in a window",
@@ -147,58 +156,115 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
+    run: list[RunFolder] = []  # the run folder, once there is one
     try:
         args = build_parser().parse_args(argv)
         if args.eval is not None:
             return _evaluate_saved(args)
-        return _train(args)
-    except UsageError as error:
+        return _train(args, run)
+    except (UsageError, RunFolderError) as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
+    except (RunWriteError, NoDisplayError) as error:
+        print(f"{PROG}: error: {error}{_written(run)}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted; nothing was written", file=sys.stderr)
+        print(f"{PROG}: interrupted; {_written(run, interrupted=True)}", file=sys.stderr)
         return 130
 
 
+def _written(run: list[RunFolder], *, interrupted: bool = False) -> str:
+    """What the run wrote, for the message of a run that stopped early."""
+    folder = run[0] if run else None
+    if folder is None or not folder.written:
+        return "nothing was written" if interrupted else ""
+    names = ", ".join(folder.written)
+    text = f"{names} {'is' if len(folder.written) == 1 else 'are'} complete in {folder.path}"
+    return text if interrupted else f" ({text})"
+
+
 # ----------------------------------------------------------------- training
-def _train(args: argparse.Namespace) -> int:
+def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
     kind = args.env or DEFAULT_ENV
+    if args.out is not None and not str(args.out).strip():
+        raise UsageError("--out must name a folder")
     floor = floor_from_args(args)
     episodes = args.episodes
     if episodes is None:
         episodes = PRESETS[floor.preset].training_episodes if floor.preset else 1000
     config = QLearningConfig(episodes=episodes, alpha=args.alpha, gamma=args.gamma, seed=args.seed)
-    started = time.localtime()
-    run_dir = args.out or _new_run_dir(kind, floor.label, args.seed, started)
-    _check_writable(run_dir)
-
     env = floor.make(kind)
     env_id = env.spec.id
     rows, cols = env.unwrapped.grid_rows, env.unwrapped.grid_cols
-    progress = _progress_bar(config.episodes, env_id, disable=args.quiet)
-    start = time.perf_counter()
     try:
-        result = train(env, config, on_episode=lambda _: progress.update())
-    finally:
-        progress.close()
-    seconds = time.perf_counter() - start
-    evaluation = evaluate(env, result.q)
-    env.close()
+        check_training_memory(rows, cols, config.episodes)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    if args.render:
+        check_display()  # before training, not after it
 
-    episode = _greedy_episode(floor, kind, result.q, seed=args.seed) if args.gif else None
-    _write_run(run_dir, env, result, evaluation, seconds, started, episode)
+    started = time.localtime()
+    if args.out is None:
+        folder = RunFolder(_new_run_dir(kind, floor.label, args.seed, started), RUN_FILES, new=True)
+    else:
+        folder = RunFolder(args.out, RUN_FILES, overwrite=args.overwrite)
+    run.append(folder)
+    try:
+        folder.open()
+    except RunFolderError as error:
+        raise UsageError(f"--out {error}" if args.out is not None else str(error)) from None
+    finished = False
+    try:
+        progress = _progress_bar(config.episodes, env_id, disable=args.quiet)
+        start = time.perf_counter()
+        try:
+            result = train(env, config, on_episode=lambda _: progress.update())
+        finally:
+            progress.close()
+        seconds = time.perf_counter() - start
+        evaluation = evaluate(env, result.q)
+        env.close()
+
+        episode = _greedy_episode(floor, kind, result.q, seed=args.seed) if args.gif else None
+        _write_run(folder, env, result, evaluation, seconds, started, episode)
+        finished = True
+    finally:
+        folder.close(remove_if_empty=not finished)
+    run_dir = folder.path
     if not args.quiet:
         print(
             f"trained {config.episodes} episodes on {env_id} ({rows}x{cols}) in {seconds:.2f} s; "
             f"{int(result.reached_target.sum())} reached the target, "
-            f"{int(result.truncated.sum())} were truncated"
+            f"{int(result.truncated.sum())} were truncated at "
+            f"{env.spec.max_episode_steps} steps"
         )
         print(evaluation.table())
+        hint = _advice(evaluation, config, env.spec.max_episode_steps)
+        if hint:
+            print(hint)
         written = [CURVE_FILE, *([GIF_FILE] if episode is not None else []), SUMMARY_FILE]
         print(f"wrote {run_dir / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     if args.render:
         _watch(floor, kind, result.q, seed=args.seed)
     return 0
+
+
+def _advice(evaluation: Evaluation, config: QLearningConfig, max_steps: int) -> str | None:
+    """One line on what to try when the greedy policy is not optimal everywhere."""
+    if evaluation.all_optimal:
+        return None
+    total = len(evaluation.results)
+    missed = total - evaluation.reached
+    what = (
+        f"the greedy policy misses {missed} of {total} targets"
+        if missed
+        else f"the greedy policy takes a longer path to {total - evaluation.optimal} of "
+        f"{total} targets"
+    )
+    return (
+        f"{what}: try more episodes (--episodes {config.episodes * 4}) or a longer time "
+        f"limit (--max-steps {max_steps * 2})"
+    )
 
 
 def _new_run_dir(kind: str, label: str | None, seed: int, started: time.struct_time) -> Path:
@@ -210,17 +276,6 @@ def _new_run_dir(kind: str, label: str | None, seed: int, started: time.struct_t
         n += 1
         run_dir = DEFAULT_RUNS_DIR / f"{name}-{n}"
     return run_dir
-
-
-def _check_writable(run_dir: Path) -> None:
-    """Refuse, before training, a run folder that could not be written."""
-    if run_dir.exists() and not run_dir.is_dir():
-        raise UsageError(f"--out {run_dir} exists and is not a folder")
-    existing = run_dir
-    while not existing.exists():
-        existing = existing.parent
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise UsageError(f"cannot write the run folder {run_dir}: {existing} is not writable")
 
 
 def _progress_bar(episodes: int, env_id: str, *, disable: bool) -> Any:
@@ -237,7 +292,7 @@ def _progress_bar(episodes: int, env_id: str, *, disable: bool) -> Any:
 
 
 def _write_run(
-    run_dir: Path,
+    folder: RunFolder,
     env: gym.Env,
     result: TrainingResult,
     evaluation: Evaluation,
@@ -248,18 +303,19 @@ def _write_run(
     """The table, the learning curve, the GIF and the summary, each written atomically."""
     from warehouse_phys.plots import learning_curve_figure, save_figure
 
-    run_dir.mkdir(parents=True, exist_ok=True)
     metadata = table_metadata(env, result.config)
-    save_q_table(run_dir / TABLE_FILE, result.q, metadata)
+    folder.write(TABLE_FILE, lambda path: save_q_table(path, result.q, metadata))
     grid = f"{metadata['grid_rows']}x{metadata['grid_cols']}"
     title = f"{metadata['env_id']} {grid}, seed {result.config.seed}"
-    save_figure(learning_curve_figure(result, title), run_dir / CURVE_FILE)
+    figure = learning_curve_figure(result, title)
+    folder.write(CURVE_FILE, lambda path: save_figure(figure, path))
     last = slice(-min(100, len(result.steps)), None)
     summary = {
         "env_id": metadata["env_id"],
         "grid": [metadata["grid_rows"], metadata["grid_cols"]],
         "layout": metadata["layout"],
         "layout_name": metadata["layout_name"],
+        "max_episode_steps": env.spec.max_episode_steps,
         "config": asdict(result.config),
         "package_version": warehouse_phys.__version__,
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", started),
@@ -276,7 +332,8 @@ def _write_run(
         "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
     }
     if episode is not None:
-        episode.animation().save(run_dir / GIF_FILE)
+        animation = episode.animation()
+        folder.write(GIF_FILE, animation.save)
         summary["files"]["episode_gif"] = GIF_FILE
         summary["gif_episode"] = {
             "seed": result.config.seed,
@@ -284,7 +341,8 @@ def _write_run(
             "steps": episode.steps,
             "reached_target": episode.terminated,
         }
-    atomic_write_text(run_dir / SUMMARY_FILE, json.dumps(summary, indent=2) + "\n")
+    text = json.dumps(summary, indent=2) + "\n"
+    folder.write(SUMMARY_FILE, lambda path: atomic_write_text(path, text))
 
 
 # --------------------------------------------------------------- evaluation
@@ -304,11 +362,11 @@ def _evaluate_saved(args: argparse.Namespace) -> int:
         raise UsageError("--eval: the layout comes from the table; leave --layout out")
     kind = args.env or _kind_of(metadata["env_id"])
     if metadata["layout_name"] is not None:
-        floor = Floor(preset=metadata["layout_name"])
+        floor = Floor(preset=metadata["layout_name"], max_steps=args.max_steps)
     elif metadata["layout"] is not None:
-        floor = Floor(layout=tuple(metadata["layout"]))
+        floor = Floor(layout=tuple(metadata["layout"]), max_steps=args.max_steps)
     else:
-        floor = Floor(rows=table_grid[0], cols=table_grid[1])
+        floor = Floor(rows=table_grid[0], cols=table_grid[1], max_steps=args.max_steps)
     env = floor.make(kind)
     env_id = env.spec.id
     evaluation = evaluate(env, q)
