@@ -6,15 +6,17 @@ import math
 import numpy as np
 import pymunk
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from warehouse_phys.grid import Action, WarehouseGrid
 from warehouse_phys.physics import (
+    PENETRATION_TOLERANCE,
     SNAP_ERROR_BOUND,
     PhysicsConfig,
     PhysicsWorld,
     check_controller,
+    penetration,
     speed_profile,
 )
 
@@ -77,12 +79,13 @@ def test_defaults_pass_the_controller_check():
 @pytest.mark.parametrize(
     ("changes", "message"),
     [
-        ({"max_force": 20.0}, r"a free move from \(0, 0\) ends on \(0, 0\), not \(0, 1\)"),
+        ({"max_force": 20.0}, r"a free move from \(2, 2\) \(LEFT\) ends on \(2, 2\), not \(2, 1\)"),
         (
             {"gain": 10.0},
-            "a free move ends 0.128 cells from the centre, not within the bound of 0.02",
+            r"a free move from \(2, 2\) \(LEFT\) ends 0.128 cells from the centre, "
+            "not within half the bound of 0.02",
         ),
-        ({"settle_time": 1 / 60}, "a move into a wall ends .* cells from the centre"),
+        ({"settle_time": 1 / 60}, "a bump into a wall or shelf .* ends .* cells from the centre"),
     ],
 )
 def test_controller_check_refuses_a_controller_that_cannot_finish_a_move(changes, message):
@@ -348,7 +351,8 @@ for i in range(1000):
     world = PhysicsWorld(grids[i % 2], PhysicsConfig(), (0, 0), record_path=i % 3 == 0)
     world.move(i % 4)
     del world
-    check_controller(PhysicsConfig(max_force=3000.0 + i))  # probe worlds, built and dropped
+    if i % 20 == 0:
+        check_controller(PhysicsConfig(max_force=3000.0 + i))  # probe worlds, built and dropped
     env = gym.make(ids[i % 4])
     env.reset(seed=i)
     env.step(i % 4)
@@ -388,3 +392,92 @@ def test_check_env_on_every_kind_never_crashes_in_fresh_processes(tmp_path):
 @pytest.mark.slow
 def test_worlds_and_environments_survive_garbage_collection_at_every_allocation(run_python):
     assert run_python(GC_STRESS_SCRIPT, timeout=300).strip() == "done"
+
+
+# ------------------------------------------------------- every accepted setting
+@pytest.mark.parametrize(
+    ("changes", "error", "message"),
+    [
+        # Found by trying settings as a user would: each is refused, saying why.
+        ({"max_speed": 13.0}, ValueError, "ends .* cells from the centre, not within half"),
+        ({"max_speed": 17.0}, ValueError, "ends .* cells from the centre, not within half"),
+        ({"max_speed": 17.99}, ValueError, "ends .* cells from the centre, not within half"),
+        (
+            {"robot_radius": 0.15, "max_speed": 8.0, "max_force": 30000.0, "robot_mass": 5.0},
+            ValueError,
+            "cells into a wall or shelf, more than the tolerance of 0.1",
+        ),
+        ({"robot_mass": 10**400}, ValueError, "robot_mass is too large"),
+        ({"cell_size": 1e308}, ValueError, "cell_size must be between 0.001 and 1000"),
+        ({"dt": 1e-308}, ValueError, "dt must be between 1e-05 and 1"),
+        ({"dt": 1e-4}, ValueError, "2500 steps .* more than the 1000 a move may take"),
+        ({"gain": np.complex128(60)}, TypeError, "gain must be a real number"),
+        ({"max_force": np.bool_(True)}, TypeError, "max_force must be a real number"),
+    ],
+)
+def test_settings_that_would_break_a_promise_are_refused(changes, error, message):
+    with pytest.raises(error, match=message):
+        check_controller(dataclasses.replace(DEFAULTS, **changes))
+
+
+def test_settings_are_stored_as_plain_floats():
+    config = PhysicsConfig(robot_mass=np.int64(20), gain=np.float32(60))
+    assert type(config.robot_mass) is float and config.robot_mass == 20.0
+    assert type(config.gain) is float and config.gain == 60.0
+
+
+def run_and_check(config, grid, actions):
+    """Play ``actions`` from the start; assert every promise at every move and physics step."""
+    world = PhysicsWorld(grid, config, grid.start, record_path=True)
+    cell, paths = grid.start, []
+    for action in actions:
+        result = world.move(action)
+        cell = grid.move(cell, action)
+        assert result.cell == cell
+        assert result.snap_error < SNAP_ERROR_BOUND
+        paths.append(world.last_path)
+    depth = penetration(grid, config.robot_radius / config.cell_size, np.concatenate(paths))
+    assert depth.max() <= PENETRATION_TOLERANCE
+
+
+def orders(default, spread):
+    """A value ``spread`` orders of magnitude either side of ``default``, log-uniformly."""
+    return st.floats(-spread, spread).map(lambda e: float(default * 10**e))
+
+
+@st.composite
+def physics_settings(draw):
+    spread = draw(st.sampled_from([2.0, 0.5]))  # wide, or close to the defaults
+    values = {
+        name: draw(orders(getattr(DEFAULTS, name), spread))
+        for name in ("cell_size", "robot_mass", "floor_damping", "max_speed", "max_force", "gain")
+    }
+    values["robot_radius"] = values["cell_size"] * draw(st.floats(0.01, 0.6))
+    dt = draw(orders(DEFAULTS.dt, spread / 2))
+    steps = draw(st.integers(1, 60))
+    values.update(dt=dt, move_duration=dt * steps, settle_time=dt * draw(st.integers(0, steps)))
+    return values
+
+
+MAZE = WarehouseGrid.from_layout(["S.#....", "..#.##.", "..#..#.", "....##.", "###...."])
+
+
+@pytest.mark.slow
+@settings(max_examples=500)
+@given(values=physics_settings(), seed=st.integers(0, 2**32 - 1))
+def test_every_accepted_setting_keeps_every_promise(values, seed):
+    """Refused with ValueError or TypeError, or 2000 random actions on two floors keep
+    the snap bound, the grid rules and the penetration tolerance at every physics step."""
+    try:
+        config = PhysicsConfig(**values)
+        check_controller(config)
+    except (ValueError, TypeError):
+        return
+    rng = np.random.default_rng(seed)
+    for grid in (WarehouseGrid(4, 5), MAZE):
+        run_and_check(config, grid, rng.integers(4, size=2000).tolist())
+
+
+@pytest.mark.parametrize("grid", [WarehouseGrid(4, 5), MAZE], ids=["empty", "maze"])
+def test_the_defaults_keep_every_promise_at_every_physics_step(grid):
+    run_and_check(DEFAULTS, grid, np.random.default_rng(0).integers(4, size=3000).tolist())

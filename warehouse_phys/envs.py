@@ -146,6 +146,9 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
             )
         if self.render_mode == "rgb_array":
             return self._renderer.rgb_array(self._robot, self._target, self._status_text())
+        self._renderer.title = (
+            f"warehouse_phys: {self.spec.id if self.spec else type(self).__name__}"
+        )
         self._renderer.show(self._robot, self._target, self._status_text())
         return None
 
@@ -178,7 +181,10 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         return {"optimal_steps": self.grid.optimal_steps(self._robot, self._target)}
 
     def _status_text(self) -> str:
-        return "" if self._last_action is None else f"Action: {self._last_action.name}"
+        if self._last_action is None:
+            return ""
+        delivered = "   Delivered!" if self._robot == self._target else ""
+        return f"Action: {self._last_action.name}{delivered}"
 
     def _parse_options(self, options: dict[str, Any] | None) -> tuple[Cell, Cell | None]:
         if options is None:
@@ -531,6 +537,9 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
         self._snap_error = 0.0
 
     def _show_move(self) -> None:
+        self._renderer.title = (
+            f"warehouse_phys: {self.spec.id if self.spec else type(self).__name__}"
+        )
         # Real time: move_duration * render_fps frames, each the body's position
         # at the end of its frame interval; the last one is the snapped frame
         # that render() draws next.

@@ -33,6 +33,7 @@ the renderer takes.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -41,7 +42,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pymunk
 
-from warehouse_phys.grid import ACTION_DELTAS, Cell, WarehouseGrid
+from warehouse_phys.grid import ACTION_DELTAS, Action, Cell, WarehouseGrid
 
 #: Largest distance between the body and the centre it is snapped to at the end
 #: of a move, in cells, that the environment promises for every move [cells].
@@ -56,6 +57,45 @@ COLLISION_SLOP = 0.002
 
 #: Friction coefficient of robot-wall contacts (rubber bumper on steel) [1].
 WALL_FRICTION = 0.6
+
+#: Deepest the robot's disc may go into a wall or a shelf at any physics step [cells]:
+#: as far as the default robot travels in one step. Contacts are solved after the
+#: overlap they resolve, so a bump always sinks in a little: the defaults reach 0.024,
+#: a controller of 10,000 N about 0.1.
+PENETRATION_TOLERANCE = 0.1
+
+#: Most physics steps in one move: no setting may make an action cost more.
+MAX_STEPS_PER_MOVE = 1000
+
+#: The values each setting may take, (lowest, highest), in its unit. Outside them
+#: the simulation loses precision or overflows; inside them the controller check
+#: (:func:`check_controller`) decides whether a setting keeps every promise.
+SUPPORTED_RANGES: dict[str, tuple[float, float]] = {
+    "cell_size": (1e-3, 1e3),  # [m]
+    "robot_radius": (1e-5, 5e2),  # [m], and less than half a cell
+    "robot_mass": (1e-3, 1e6),  # [kg]
+    "floor_damping": (1e-3, 1e3),  # [1/s]
+    "max_speed": (1e-6, 1e6),  # [m/s], and less than robot_radius per step
+    "max_force": (1e-6, 1e12),  # [N]
+    "gain": (1e-3, 1e4),  # [1/s]
+    "dt": (1e-5, 1.0),  # [s]
+    "move_duration": (1e-5, 60.0),  # [s], and at most MAX_STEPS_PER_MOVE steps
+    "settle_time": (1e-5, 60.0),  # [s], and shorter than a move
+}
+
+
+_UNITS = {
+    "cell_size": "m",
+    "robot_radius": "m",
+    "robot_mass": "kg",
+    "floor_damping": "1/s",
+    "max_speed": "m/s",
+    "max_force": "N",
+    "gain": "1/s",
+    "dt": "s",
+    "move_duration": "s",
+    "settle_time": "s",
+}
 
 
 @dataclass(frozen=True)
@@ -102,12 +142,25 @@ class PhysicsConfig:
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+            if isinstance(value, (bool, np.bool_)) or not isinstance(
+                value, (int, float, np.integer, np.floating)
+            ):
                 raise TypeError(
                     f"{field.name} must be a real number, got {value!r} ({type(value).__name__})"
                 )
-            if not math.isfinite(value) or value <= 0:
+            try:
+                number = float(value)
+            except OverflowError:
+                raise ValueError(f"{field.name} is too large: {value}") from None
+            if not math.isfinite(number) or number <= 0:
                 raise ValueError(f"{field.name} must be positive and finite, got {value!r}")
+            low, high = SUPPORTED_RANGES[field.name]
+            if not low <= number <= high:
+                raise ValueError(
+                    f"{field.name} must be between {low:g} and {high:g} "
+                    f"({_UNITS[field.name]}), got {number:g}"
+                )
+            object.__setattr__(self, field.name, number)  # plain floats: hashable, exact
         if self.robot_radius >= self.cell_size / 2:
             raise ValueError(
                 f"robot_radius {self.robot_radius} m must be less than half the cell_size "
@@ -123,6 +176,11 @@ class PhysicsConfig:
             raise ValueError(
                 f"move_duration {self.move_duration} s is not a whole number of dt={self.dt} s "
                 f"steps ({steps:.4g}); one action must be a fixed number of physics steps"
+            )
+        if steps > MAX_STEPS_PER_MOVE:
+            raise ValueError(
+                f"move_duration {self.move_duration} s is {round(steps)} steps of dt={self.dt} s, "
+                f"more than the {MAX_STEPS_PER_MOVE} a move may take; lengthen dt"
             )
         if not 1 <= self.settle_steps < self.steps_per_move:
             raise ValueError(
@@ -416,31 +474,101 @@ def _wall_shapes(
     return [_box(static_body, *box) for box in boxes]
 
 
-def check_controller(config: PhysicsConfig) -> None:
-    """Refuse a configuration whose controller cannot finish a move within the bound.
+def penetration(grid: WarehouseGrid, radius: float, path: np.ndarray) -> np.ndarray:
+    """How deep the robot's disc goes into a wall or a shelf at each point of ``path``.
 
-    Runs a free move and a move into a wall on a small floor. The environments
-    call this once when they are built, so a controller that is too weak, too
-    slow or given too short a move fails at once with a message instead of
-    silently leaving the robot short of its cell.
+    Args:
+        grid: The floor (its size and its shelves).
+        radius: The disc's radius [cells].
+        path: Centres of the disc, ``(k, 2)`` of ``(row, col)`` in cell units
+            (cell centres at whole numbers), as :attr:`PhysicsWorld.last_path`.
+
+    Returns:
+        ``(k,)`` depths [cells], 0 where the disc touches nothing. A disc whose
+        centre is inside a wall or shelf counts at least its radius.
+    """
+    path = np.asarray(path, dtype=np.float64).reshape(-1, 2)
+    row, col = path[:, 0], path[:, 1]
+    # The floor spans -0.5 .. rows - 0.5 in cell units; walls lie beyond.
+    depth = np.maximum.reduce(
+        [
+            radius - (row + 0.5),
+            row + radius - (grid.rows - 0.5),
+            radius - (col + 0.5),
+            col + radius - (grid.cols - 0.5),
+            np.zeros(len(path)),
+        ]
+    )
+    for shelf_row, shelf_col in grid.shelves:
+        # Distance from the centre to the shelf's square; depth = radius - distance.
+        d_row = np.maximum(np.abs(row - shelf_row) - 0.5, 0.0)
+        d_col = np.maximum(np.abs(col - shelf_col) - 0.5, 0.0)
+        depth = np.maximum(depth, radius - np.hypot(d_row, d_col))
+    return depth
+
+
+#: The floor the controller is tried on: room to overshoot in every direction, walls
+#: and a shelf to bump into along both axes.
+_PROBE_FLOOR = WarehouseGrid.from_layout([".....", ".....", "...#.", ".....", "....."])
+#: (start, actions) of each probe; every move's cell is checked against the grid rules.
+_PROBES: tuple[tuple[Cell, tuple[int, ...]], ...] = (
+    *((Cell(2, 2), (action,)) for action in range(4)),  # free moves, nothing ahead for 2 cells
+    (Cell(0, 3), (2,)),  # a free move that ends beside a wall
+    (Cell(0, 0), (0,)),  # a bump into the left wall
+    (Cell(0, 0), (3,)),  # a bump into the top wall
+    (Cell(2, 2), (2,)),  # a bump into the shelf along a row...
+    (Cell(1, 3), (1,)),  # ... and along a column
+    # Moves after moves: reversals, turns, repeated bumps, a bump then away and back.
+    (Cell(0, 0), (0, 2, 2, 0, 3, 3, 1, 1, 2, 2, 2, 1, 1, 0, 2, 3, 3, 2, 2, 1, 1, 1, 0, 3)),
+)
+
+
+@functools.cache
+def check_controller(config: PhysicsConfig) -> None:
+    """Refuse a configuration whose moves could break a promise of the environments.
+
+    Tries the controller on a small floor (see ``_PROBES``): free moves in every
+    direction with open floor beyond (so no wall hides an overshoot), a free
+    move that ends beside a wall, bumps into walls and into a shelf along both
+    axes, and a long chain of such moves (so that what one move leaves in the
+    solver carries into the next). Every move must end on the cell the grid
+    rules give, less than half of :data:`SNAP_ERROR_BOUND` from its centre (the
+    other half is a margin for floors and histories not tried here), and the
+    disc must never go deeper than :data:`PENETRATION_TOLERANCE` into a wall or
+    shelf. The environments call this when they are built; the answer for a
+    configuration is cached.
 
     Raises:
-        ValueError: if the free move does not end on the next cell, the wall
-            move does not end on the robot's own cell, or either ends
-            :data:`SNAP_ERROR_BOUND` cells or more from its centre.
+        ValueError: saying which move failed and how, with advice.
     """
-    grid = WarehouseGrid(2, 2)
     advice = "raise max_force, max_speed or gain, or lengthen move_duration"
-    probes = ((2, "a free move", Cell(0, 1)), (0, "a move into a wall", Cell(0, 0)))
-    for action, name, expected in probes:  # RIGHT onto the floor, LEFT into the wall
-        result = PhysicsWorld(grid, config, (0, 0)).move(action)
-        if result.cell != expected:
-            raise ValueError(
-                f"with these settings {name} from (0, 0) ends on {tuple(result.cell)}, "
-                f"not {tuple(expected)}: the controller cannot bring the robot there; {advice}"
-            )
-        if not result.snap_error < SNAP_ERROR_BOUND:
-            raise ValueError(
-                f"with these settings {name} ends {result.snap_error:.3g} cells from the centre, "
-                f"not within the bound of {SNAP_ERROR_BOUND}; {advice}"
-            )
+    radius = config.robot_radius / config.cell_size
+    for start, actions in _PROBES:
+        world = PhysicsWorld(_PROBE_FLOOR, config, start, record_path=True)
+        cell = start
+        for action in actions:
+            expected = _PROBE_FLOOR.move(cell, action)
+            kind = "a free move" if expected != cell else "a bump into a wall or shelf"
+            name = f"{kind} from {tuple(cell)} ({Action(action).name})"
+            try:
+                result = world.move(action)
+            except RuntimeError as error:
+                raise ValueError(f"with these settings {name} fails: {error}; {advice}") from None
+            depth = float(penetration(_PROBE_FLOOR, radius, world.last_path).max())
+            if depth > PENETRATION_TOLERANCE:
+                raise ValueError(
+                    f"with these settings {name} drives the robot {depth:.3g} cells into a "
+                    f"wall or shelf, more than the tolerance of {PENETRATION_TOLERANCE}; "
+                    "lower max_force or max_speed, or raise robot_mass"
+                )
+            if result.cell != expected:
+                raise ValueError(
+                    f"with these settings {name} ends on {tuple(result.cell)}, "
+                    f"not {tuple(expected)}: the controller cannot bring the robot there; {advice}"
+                )
+            if not result.snap_error < SNAP_ERROR_BOUND / 2:
+                raise ValueError(
+                    f"with these settings {name} ends {result.snap_error:.3g} cells from the "
+                    f"centre, not within half the bound of {SNAP_ERROR_BOUND}; {advice}"
+                )
+            cell = expected

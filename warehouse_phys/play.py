@@ -143,17 +143,22 @@ class PlaySession:
                 self.step(self.action_keys[event.key])
 
     def step(self, action: Action) -> None:
-        """Take ``action``, playing the motion in the window, and update the counters."""
-        self.obs, reward, self.terminated, self.truncated, self.info = self.env.step(action)
-        self.steps += 1
-        self.last_reward = float(reward)
-        self.episode_return += self.last_reward
+        """Take ``action``, playing the motion in the window, then update the counters.
+
+        While the motion plays, the text under it still shows the counters from
+        before the move: the reward and "Delivered" appear when the robot arrives.
+        """
+        obs, reward, terminated, truncated, info = self.env.step(action)
         if self._physics:
             # The move in real time: every frame but the last, which is before the snap.
             for frame in self.env.unwrapped.move_frames()[:-1]:
                 self._frame = frame
                 self._draw()
                 self._clock.tick(self._fps)
+        self.obs, self.terminated, self.truncated, self.info = obs, terminated, truncated, info
+        self.steps += 1
+        self.last_reward = float(reward)
+        self.episode_return += self.last_reward
         self._frame = self.env.render()
         self._draw()
 

@@ -42,6 +42,7 @@ MAX_FRAME_SIDE_PX = 16384
 MAX_FRAME_PIXELS = 2**25
 
 STATUS_BACKGROUND = (38, 42, 48)  # RGB
+DELIVERED_FRAME = (90, 200, 90)  # RGB: around the cell where the package was delivered
 STATUS_TEXT = (235, 235, 235)  # RGB
 
 
@@ -203,6 +204,7 @@ class WarehouseRenderer:
         self._floor: pygame.Surface | None = None
         self._robot: pygame.Surface | None = None
         self._package: pygame.Surface | None = None
+        self._package_carried: pygame.Surface | None = None
         self._canvas: pygame.Surface | None = None
         self._font: Any = None
         self._status_cache: tuple[str, pygame.Surface] | None = None
@@ -236,6 +238,7 @@ class WarehouseRenderer:
             _floor=None,
             _robot=None,
             _package=None,
+            _package_carried=None,
             _canvas=None,
             _font=None,
             _status_cache=None,
@@ -270,6 +273,11 @@ class WarehouseRenderer:
         surface.blit(self._floor, (0, 0))
         surface.blit(self._package, (target[1] * px, target[0] * px))
         surface.blit(self._robot, (round(robot[1] * px), round(robot[0] * px)))
+        if robot[0] == target[0] and robot[1] == target[1]:
+            # Delivered: the robot carries the package, and its cell is framed.
+            left, top = target[1] * px, target[0] * px
+            surface.blit(self._package_carried, (left + px // 2, top))
+            pg.draw.rect(surface, DELIVERED_FRAME, (left, top, px, px), width=max(2, px // 16))
         surface.fill(STATUS_BACKGROUND, (0, self.rows * px, self.width, self.status_px))
         if status:
             text = self._status_surface(status)
@@ -327,7 +335,7 @@ class WarehouseRenderer:
         self._window = None
         self._clock = None
         self._canvas = None
-        self._floor = self._robot = self._package = None
+        self._floor = self._robot = self._package = self._package_carried = None
         self._font = None
         self._status_cache = None
 
@@ -370,6 +378,7 @@ class WarehouseRenderer:
         self._floor = floor
         self._robot = load("robot.png")
         self._package = load("package.png")
+        self._package_carried = pg.transform.smoothscale(self._package, (px // 2, px // 2))
 
     def _status_surface(self, status: str) -> pygame.Surface:
         if self._status_cache is not None and self._status_cache[0] == status:
