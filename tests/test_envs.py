@@ -445,3 +445,194 @@ def test_a_start_option_in_a_walled_off_room_is_refused(env_id):
     env = gym.make(env_id, layout=["S.#.", "..#.", "###."])
     with pytest.raises(ValueError, match=r"\(0, 3\) cannot be reached from the layout's start"):
         env.reset(options={"start": (0, 3)})
+
+
+# ------------------------------------------------------------- copy and pickle
+def path_or_none(env):
+    base = env.unwrapped
+    return base.last_move_path.tobytes() if getattr(base, "record_path", False) else None
+
+
+def play_in_lockstep(original, duplicate, seed, n_actions=250):
+    """Step both with the same random actions (resetting on episode ends); assert equality."""
+    actions = np.random.default_rng(seed).integers(4, size=n_actions).tolist()
+    for action in actions:
+        a, b = original.step(action), duplicate.step(action)
+        assert np.array_equal(a[0], b[0])
+        assert a[1:4] == b[1:4]
+        assert a[4] == b[4]
+        assert path_or_none(original) == path_or_none(duplicate)
+        if a[2] or a[3]:
+            assert np.array_equal(original.reset()[0], duplicate.reset()[0])
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+@pytest.mark.parametrize("stage", ["before reset", "after reset", "mid-episode"])
+@pytest.mark.parametrize("made", ["gym.make", "unwrapped"])
+@pytest.mark.parametrize(
+    ("env_id", "kwargs"),
+    [
+        (warehouse_phys.GRID_ENV_ID, {}),
+        (warehouse_phys.PHYSICS_ENV_ID, {"record_path": True}),
+        ("warehouse-robot-phys-maze-v0", {"render_mode": "rgb_array"}),
+    ],
+    ids=["grid", "phys", "phys-maze-rgb"],
+)
+def test_a_copy_continues_bit_for_bit_with_the_original(env_id, kwargs, made, stage, how):
+    import copy
+    import pickle
+
+    env = gym.make(env_id, max_episode_steps=40, **kwargs)
+    env = env if made == "gym.make" else env.unwrapped
+    if stage != "before reset":
+        env.reset(seed=7)
+    if stage == "mid-episode":
+        for action in [2, 1, 0, 0, 3, 1, 2]:  # includes moves into a wall
+            env.step(action)
+        if env.render_mode == "rgb_array":
+            env.render()  # the renderer now holds pygame surfaces
+    duplicate = copy.deepcopy(env) if how == "deepcopy" else pickle.loads(pickle.dumps(env))
+    if stage == "before reset":
+        env.reset(seed=3)
+        duplicate.reset(seed=3)
+    play_in_lockstep(env, duplicate, seed=11)
+    if env.render_mode == "rgb_array":
+        assert np.array_equal(env.render(), duplicate.render())
+
+
+# ------------------------------------------------------------------ small inputs
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        (5, TypeError, r"reset options must be a dict or None, got 5 \(int\)"),
+        ({"target"}, TypeError, r"reset options must be a dict or None, got \{'target'\} \(set\)"),
+        ([("target", (1, 1))], TypeError, "reset options must be a dict or None"),
+        ({1: 2, "x": 3}, ValueError,
+         r"unknown reset option\(s\) 1, 'x'; known: \['start', 'target'\]"),
+    ],
+)  # fmt: skip
+def test_malformed_reset_options_are_refused_by_name(env_id, options, error, message):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    before = env.unwrapped.np_random.bit_generator.state
+    with pytest.raises(error, match=message):
+        env.reset(seed=1, options=options)
+    assert env.unwrapped.np_random.bit_generator.state == before  # nothing changed
+
+
+@pytest.mark.parametrize(
+    "action", [np.timedelta64(2), np.array(np.timedelta64(2, "s")), np.datetime64(2, "D")]
+)
+def test_time_values_are_not_actions(env_id, action):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    with pytest.raises(TypeError, match=r"expected an integer in 0\.\.3"):
+        env.step(action)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"grid_rows": "7"}, TypeError, r"grid_rows must be an integer, got '7' \(str\)"),
+        ({"grid_cols": 7.0}, TypeError, r"grid_cols must be an integer, got 7.0 \(float\)"),
+        ({"grid_rows": True}, TypeError, "grid_rows must be an integer"),
+    ],
+)
+def test_sizes_given_with_a_layout_are_checked_by_name(env_id, kwargs, error, message):
+    with pytest.raises(error, match=message):
+        gym.make(env_id, layout="maze", **kwargs)
+
+
+# -------------------------------------------------------------------- big floors
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"grid_rows": 513},
+         "grid_rows must be at most 512, got 513: the largest floor is 512 x 512"),
+        ({"grid_cols": 100_000}, "grid_cols must be at most 512"),
+        ({"grid_rows": 2**63}, "grid_rows must be at most 512"),
+        ({"layout": ["S" + "." * 600]}, "the layout has 1 rows of 601 cells: the largest floor is"),
+    ],
+)  # fmt: skip
+def test_floors_beyond_the_largest_are_refused_at_once(env_id, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        gym.make(env_id, **kwargs)
+
+
+def big_layout(n):
+    """An n x n floor of aisles: shelf runs in every other row, gaps at both ends."""
+    shelf_row = "." + "#" * (n - 2) + "."
+    return ["S" + "." * (n - 1)] + [shelf_row if r % 2 else "." * n for r in range(1, n)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("floor", ["plain", "layout"])
+def test_a_256_by_256_floor_builds_and_steps_in_both_worlds(env_id, floor):
+    kwargs = (
+        {"grid_rows": 256, "grid_cols": 256} if floor == "plain" else {"layout": big_layout(256)}
+    )
+    env = gym.make(env_id, **kwargs)
+    obs, info = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    grid = env.unwrapped.grid
+    for action in np.random.default_rng(0).integers(4, size=50).tolist():
+        robot = (int(obs[0]), int(obs[1]))
+        obs, _, terminated, _, info = env.step(action)
+        assert (obs[0], obs[1]) == grid.move(robot, action)
+        assert info["optimal_steps"] == grid.optimal_steps((obs[0], obs[1]), (obs[2], obs[3]))
+        if terminated:
+            obs, info = env.reset()
+
+
+@pytest.mark.parametrize("render_mode", ["rgb_array", "human"])
+def test_frames_too_large_to_draw_are_refused_when_built(env_id, render_mode):
+    with pytest.raises(
+        ValueError, match=r"a 200x200 floor at cell_px=64 makes frames of 12800x12824 pixels"
+    ):
+        gym.make(env_id, grid_rows=200, grid_cols=200, render_mode=render_mode)
+    small = gym.make(env_id, grid_rows=200, grid_cols=200, render_mode="rgb_array", cell_px=16)
+    small.reset(seed=0)
+    assert small.render().shape == (200 * 16 + 20, 200 * 16, 3)
+
+
+def test_distance_maps_are_bounded_on_big_floors():
+    env = gym.make(ENV_ID, layout=big_layout(200))
+    grid = env.unwrapped.grid
+    for target in grid.target_cells[:60]:  # more targets than the 52 maps kept
+        env.reset(options={"target": target})
+    assert len(grid._distances) <= grid._distance_cache_size
+    assert grid._distance_cache_size == 2**21 // (200 * 200)
+
+
+# ------------------------------------------------------------ what a person sees
+def test_the_frame_shows_a_delivered_package(env_id):
+    env = gym.make(env_id, render_mode="rgb_array", grid_rows=3, grid_cols=3)
+    env.reset(options={"target": (1, 1)})
+    env.step(Action.DOWN)
+    before = env.render()
+    assert "Delivered" not in env.unwrapped._status_text()
+    _, reward, terminated, _, _ = env.step(Action.RIGHT)
+    assert (reward, terminated) == (1.0, True)
+    after = env.render()
+    assert "Delivered!" in env.unwrapped._status_text()
+    cell = after[64:128, 64:128].astype(int)
+    # The cell is framed in green and the carried package shows in its top-right quarter.
+    frame_colour = np.array(warehouse_phys.render.DELIVERED_FRAME)
+    assert (np.abs(cell[0] - frame_colour).sum(axis=1) == 0).all()
+    robot_only = gym.make(env_id, render_mode="rgb_array", grid_rows=3, grid_cols=3)
+    robot_only.reset(options={"target": (2, 2), "start": (1, 1)})
+    robot_only.unwrapped._last_action = Action.RIGHT
+    plain = robot_only.render()[64:128, 64:128].astype(int)
+    assert np.abs(cell[4:28, 36:60] - plain[4:28, 36:60]).mean() > 20
+    assert not np.array_equal(before[192:], after[192:])  # the status line changed
+
+
+def test_the_window_is_titled_with_the_environment_id(env_id):
+    import pygame
+
+    env = gym.make(env_id, render_mode="human")
+    try:
+        env.reset(seed=0)
+        assert pygame.display.get_caption()[0] == f"warehouse_phys: {env_id}"
+    finally:
+        env.close()

@@ -422,8 +422,10 @@ def test_settings_that_would_break_a_promise_are_refused(changes, error, message
 
 def test_settings_are_stored_as_plain_floats():
     config = PhysicsConfig(robot_mass=np.int64(20), gain=np.float32(60))
-    assert type(config.robot_mass) is float and config.robot_mass == 20.0
-    assert type(config.gain) is float and config.gain == 60.0
+    assert type(config.robot_mass) is float
+    assert config.robot_mass == 20.0
+    assert type(config.gain) is float
+    assert config.gain == 60.0
 
 
 def run_and_check(config, grid, actions):
