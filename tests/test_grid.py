@@ -10,7 +10,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from warehouse_phys import grid as grid_module
-from warehouse_phys.grid import START_CELL, Action, Cell, WarehouseGrid
+from warehouse_phys.grid import MAX_SIDE, START_CELL, Action, Cell, WarehouseGrid
 
 sizes = st.tuples(st.integers(2, 12), st.integers(2, 12))
 
@@ -302,3 +302,38 @@ def test_layout_targets_are_uniform():
     for _ in range(n * 2000):
         counts[index[grid.sample_target(rng)]] += 1
     assert np.abs(counts / 2000 - 1).max() < 0.1
+
+
+# ------------------------------------------------------------------ size limits
+@pytest.mark.parametrize(
+    ("rows", "cols", "error", "message"),
+    [
+        (513, 4, ValueError, "grid_rows must be at most 512, got 513"),
+        (4, 10**6, ValueError, "grid_cols must be at most 512"),
+        (2**63, 2**63, ValueError, "grid_rows must be at most 512"),
+        (np.int64(600), 4, ValueError, "grid_rows must be at most 512"),
+        ("7", 4, TypeError, "grid_rows must be an integer"),
+    ],
+)
+def test_sizes_beyond_the_largest_floor_are_refused(rows, cols, error, message):
+    with pytest.raises(error, match=message):
+        WarehouseGrid(rows, cols)
+
+
+def test_the_largest_floor_is_built():
+    grid = WarehouseGrid(MAX_SIDE, MAX_SIDE)
+    assert len(grid.reachable) == MAX_SIDE**2
+    assert grid.optimal_steps(grid.start, (MAX_SIDE - 1, MAX_SIDE - 1)) == 2 * MAX_SIDE - 2
+
+
+def test_layouts_beyond_the_largest_floor_are_refused():
+    with pytest.raises(ValueError, match="the layout has 513 rows of 2 cells"):
+        WarehouseGrid.from_layout(["S."] + [".."] * 512)
+
+
+def test_breadth_first_distances_match_a_plain_search_around_shelves():
+    grid = WarehouseGrid.from_layout(["S..#....", ".#.#.##.", ".#...#..", ".####.#.", "......#P"])
+    for cell in sorted(grid.reachable):
+        assert grid.optimal_steps(cell, grid.target_cells[0]) == _bfs_steps(
+            grid, cell, grid.target_cells[0]
+        )

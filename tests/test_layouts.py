@@ -90,3 +90,49 @@ def test_layouts_module_imports_no_simulation_or_gui_library():
         for alias in node.names
     }
     assert not imported & {"gymnasium", "gym", "pymunk", "pygame"}
+
+
+@pytest.mark.parametrize("size", [(6, 6), (8, 8), (10, 10)])
+def test_small_floors_get_the_exact_random_walk_limit(size):
+    grid = WarehouseGrid(*size)
+    limit = suggested_time_limit(grid)
+    assert grid.random_walk_finish_rate(limit) >= 0.98
+    assert grid.random_walk_finish_rate(limit - 100) < 0.98
+
+
+@pytest.mark.parametrize(
+    ("grid", "limit"),
+    [
+        (WarehouseGrid(10, 11), 1400),  # 110 cells: 12 each, rounded up to 100
+        (WarehouseGrid(100, 100), 120_000),
+        (WarehouseGrid(512, 512), 3_145_800),
+        (WarehouseGrid.from_layout(["S" + "." * 119, "#" * 119 + "."]), 1500),  # 121 reachable
+    ],
+)
+def test_larger_floors_get_twelve_steps_per_reachable_cell(grid, limit):
+    assert len(grid.reachable) > 100
+    assert suggested_time_limit(grid) == limit
+
+
+def test_the_exact_limit_does_not_rerun_the_walk_for_every_candidate():
+    """The 14 x 14 floor took 93 s when each candidate limit restarted the walk."""
+    grid = WarehouseGrid(10, 10)
+    calls = []
+    real = WarehouseGrid._finish_rates
+
+    def counted(self):
+        calls.append(1)
+        return real(self)
+
+    WarehouseGrid._finish_rates = counted
+    try:
+        assert suggested_time_limit(grid) == 1200
+    finally:
+        WarehouseGrid._finish_rates = real
+    assert len(calls) == 1
+
+
+@pytest.mark.parametrize("granularity", [0, -5, 2.5, True])
+def test_a_granularity_that_is_not_a_positive_integer_is_refused(granularity):
+    with pytest.raises(ValueError, match="granularity must be a positive integer"):
+        suggested_time_limit(WarehouseGrid(4, 5), granularity)

@@ -16,6 +16,7 @@ from warehouse_phys.qlearning import (
     TABLE_FORMAT,
     QLearningConfig,
     QTableError,
+    check_training_memory,
     evaluate,
     greedy_actions,
     load_q_table,
@@ -486,3 +487,199 @@ def test_a_table_with_a_bad_layout_is_refused(tmp_path, changes, message):
     write_npz(path, q=np.zeros((rows, cols, rows, cols, 4)), metadata=good_metadata(**changes))
     with pytest.raises(QTableError, match=message):
         load_q_table(path)
+
+
+# ------------------------------------------------------------ crafted archives
+def npy_bytes(header_text, data=b""):
+    """An NPY member with this header text, version 1.0, padded as numpy pads it."""
+    header = header_text.encode("latin1")
+    length = len(header) + 1
+    pad = (64 - (10 + length) % 64) % 64
+    header += b" " * pad + b"\n"
+    return b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header + data
+
+
+def raw_npz(path, members, *, compress=zipfile.ZIP_DEFLATED):
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, data in members.items():
+            info = zipfile.ZipInfo(f"{name}.npy")
+            info.compress_type = compress
+            archive.writestr(info, data)
+
+
+def metadata_member(**changes):
+    buffer = io.BytesIO()
+    np.lib.format.write_array(buffer, good_metadata(**changes))
+    return buffer.getvalue()
+
+
+def table_member(array):
+    buffer = io.BytesIO()
+    np.lib.format.write_array(buffer, array)
+    return buffer.getvalue()
+
+
+def patch_headers(path, field, value):
+    """Rewrite a 2-byte field of every entry's local and central header: "flags" or "method"."""
+    offsets = {"flags": (6, 8), "method": (8, 10)}[field]
+    data = bytearray(path.read_bytes())
+    for signature, offset in zip((b"PK\x03\x04", b"PK\x01\x02"), offsets, strict=True):
+        start = 0
+        while (start := data.find(signature, start)) >= 0:
+            data[start + offset : start + offset + 2] = value.to_bytes(2, "little")
+            start += 4
+    path.write_bytes(bytes(data))
+
+
+ZEROS = np.zeros((4, 5, 4, 5, 4))
+TRUNCATED_HEADER = "{'descr': '<f8', 'fortran_order': False, 'shape': (4, 5"
+NEGATIVE_SHAPE = "{'descr': '<f8', 'fortran_order': False, 'shape': (-4,), }"
+
+
+def huge_shape(p):
+    header = "{'descr': '<f8', 'fortran_order': False, 'shape': (10000000, 10000000), }"
+    raw_npz(p, {"q": npy_bytes(header, b"\0" * 64), "metadata": metadata_member()})
+
+
+def nested_metadata(p):
+    text = "[" * 40_000 + "]" * 40_000  # 320 KB: under the size cap, too deep to parse
+    write_npz(p, q=ZEROS, metadata=np.array(text))
+
+
+def huge_number(p):
+    text = json.dumps(json.loads(str(good_metadata()))).replace(
+        '"seed": 0', '"seed": 1' + "0" * 5000
+    )
+    write_npz(p, q=ZEROS, metadata=np.array(text))
+
+
+def longdouble_overflow(p):
+    write_npz(p, q=np.full((4, 5, 4, 5, 4), np.longdouble("1e400")), metadata=good_metadata())
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (huge_shape, r"array 'q' declares shape \(10000000, 10000000\) of float64, "
+                     r"800000000000000 bytes, more than the 25600 it may hold"),
+        (nested_metadata, r"metadata is not valid JSON \(nested too deeply\)"),
+        (huge_number, r"metadata is not valid JSON \(Exceeds the limit"),
+        (lambda p: raw_npz(p, {"q": b"not an array", "metadata": metadata_member()}),
+         "array 'q' is not NPY data"),
+        (lambda p: raw_npz(p, {"q": table_member(ZEROS), "metadata": b"\x93NUMPY\x01"}),
+         "array 'metadata' is not NPY data"),
+        (lambda p: (raw_npz(p, {"q": table_member(ZEROS), "metadata": metadata_member()}),
+                    patch_headers(p, "flags", 1)),
+         "member 'q.npy' is encrypted"),
+        (lambda p: raw_npz(p, {"q": npy_bytes(TRUNCATED_HEADER), "metadata": metadata_member()}),
+         "array 'q' is not NPY data"),
+        (lambda p: raw_npz(p, {"q": npy_bytes(NEGATIVE_SHAPE), "metadata": metadata_member()}),
+         "array 'q' is not NPY data|invalid shape"),
+        (lambda p: (raw_npz(p, {"q": table_member(ZEROS), "metadata": metadata_member()}),
+                    patch_headers(p, "method", 99)),
+         "member 'q.npy' uses zip compression method 99; numpy's archives are stored or deflated"),
+        (lambda p: raw_npz(p, {"q": table_member(ZEROS), "metadata": metadata_member()},
+                           compress=zipfile.ZIP_LZMA),
+         "uses zip compression method 14"),
+        (longdouble_overflow, "table holds NaN or infinite values"),
+        (lambda p: write_npz(p, q=ZEROS.astype(np.int64), metadata=good_metadata()),
+         "table has dtype int64, expected real floats"),
+        (lambda p: write_npz(p, q=ZEROS.astype(np.complex128), metadata=good_metadata()),
+         "table has dtype complex128, expected real floats"),
+        (lambda p: write_npz(p, q=ZEROS[..., :2], metadata=good_metadata()),
+         r"table shape \(4, 5, 4, 5, 2\) does not match its 4x5 grid"),
+        (lambda p: write_npz(p, q=np.zeros((5, 7, 5, 7, 4)), metadata=good_metadata(
+            grid_rows=5, grid_cols=7, layout=list(warehouse_phys.PRESETS["maze"].rows),
+            layout_name="depot", env_id="warehouse-robot-maze-v0")),
+         "metadata 'layout_name' is 'depot', but its layout is the preset 'maze'"),
+        (lambda p: write_npz(p, q=np.zeros((2, 3, 2, 3, 4)), metadata=good_metadata(
+            grid_rows=2, grid_cols=3, layout=["S.#", "..P"], layout_name="nowhere")),
+         "metadata 'layout_name' is 'nowhere', but its layout is not a preset's"),
+        (lambda p: write_npz(p, q=ZEROS, metadata=good_metadata(layout_name="maze")),
+         "metadata names the layout 'maze' but holds no layout"),
+        (lambda p: write_npz(p, q=ZEROS, metadata=good_metadata(env_id="CartPole-v1")),
+         "metadata 'env_id' 'CartPole-v1' is not a warehouse environment"),
+        (lambda p: write_npz(p, q=ZEROS, metadata=good_metadata(env_id="warehouse-robot-maze-v0")),
+         "is a preset's, but holds no layout"),
+        (lambda p: write_npz(p, q=ZEROS, metadata=good_metadata(alpha=0)),
+         "metadata 'alpha' is out of range: 0"),
+        (lambda p: write_npz(p, q=ZEROS, metadata=good_metadata(episodes=-3)),
+         "metadata 'episodes' is out of range: -3"),
+        (lambda p: write_npz(p, q=ZEROS, metadata=good_metadata(grid_rows=10**3000)),
+         "metadata 'grid_rows' is out of range: a huge number"),
+    ],
+)  # fmt: skip
+def test_crafted_archives_are_refused_in_one_line(tmp_path, make, message):
+    path = tmp_path / "table.npz"
+    make(path)
+    with pytest.raises(QTableError, match=message) as caught:
+        load_q_table(path)
+    text = str(caught.value)
+    assert text.startswith(f"{path}: ")
+    assert "\n" not in text
+    assert len(text) < 400
+
+
+def test_oversized_metadata_is_refused_before_it_is_read(tmp_path):
+    import tracemalloc
+
+    path = tmp_path / "table.npz"
+    chars = 25 * 2**20  # 100 MiB of text as numpy's 4-byte characters; compresses to kilobytes
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("q.npy", table_member(ZEROS))
+        header = f"{{'descr': '<U{chars}', 'fortran_order': False, 'shape': (), }}"
+        with archive.open("metadata.npy", "w", force_zip64=True) as member:
+            member.write(npy_bytes(header))
+            block = " ".encode("utf-32-le") * 2**18
+            for _ in range(chars // 2**18):
+                member.write(block)
+    assert path.stat().st_size < 2**20
+    tracemalloc.start()
+    try:
+        with pytest.raises(QTableError, match=r"array 'metadata' declares .* bytes, more than"):
+            load_q_table(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 4 * 2**20
+
+
+def test_a_huge_declared_table_allocates_nothing(tmp_path):
+    import tracemalloc
+
+    path = tmp_path / "table.npz"
+    huge_shape(path)
+    tracemalloc.start()
+    try:
+        with pytest.raises(QTableError):
+            load_q_table(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2 * 2**20
+
+
+def test_a_float32_table_loads_as_float64(tmp_path):
+    path = tmp_path / "table.npz"
+    q32 = np.random.default_rng(0).random((4, 5, 4, 5, 4)).astype(np.float32)
+    write_npz(path, q=q32, metadata=good_metadata())
+    q, _ = load_q_table(path)
+    assert q.dtype == np.float64
+    assert np.array_equal(q, q32.astype(np.float64))
+
+
+# ------------------------------------------------------------- memory budget
+def test_a_table_over_the_memory_budget_is_refused_before_allocation():
+    with pytest.raises(
+        ValueError, match=r"a 300x300 floor needs a Q-table of 241\.4 GiB, more than"
+    ):
+        new_q_table(300, 300)
+    with pytest.raises(ValueError, match=r"and 999999999999 episodes need 23\.6 TiB of records"):
+        check_training_memory(4, 5, 999_999_999_999)
+    check_training_memory(64, 64, 1_000_000)  # 512 MiB of table, 25 MiB of records: fine
+
+
+def test_train_checks_the_budget_before_it_allocates():
+    env = gym.make(GRID_ID)
+    with pytest.raises(ValueError, match=r"more than the 2\.0 GiB a training run may take"):
+        train(env, QLearningConfig(episodes=999_999_999_999))

@@ -100,10 +100,12 @@ def check_training_memory(rows: int, cols: int, episodes: int) -> None:
     table = table_bytes(rows, cols)
     records = episodes * RECORD_BYTES_PER_EPISODE
     if table + records > TRAINING_MEMORY_BUDGET:
+        records_text = (
+            f" and {episodes} episodes need {_size(records)} of records" if episodes else ""
+        )
         raise ValueError(
-            f"a {rows}x{cols} floor needs a Q-table of {_size(table)} and {episodes} episodes "
-            f"need {_size(records)} of records, more than the "
-            f"{_size(TRAINING_MEMORY_BUDGET)} a training run may take; "
+            f"a {rows}x{cols} floor needs a Q-table of {_size(table)}{records_text}, more than "
+            f"the {_size(TRAINING_MEMORY_BUDGET)} a training run may take; "
             "train on a smaller floor or fewer episodes"
         )
 
