@@ -1,6 +1,7 @@
 """``python -m warehouse_phys.train`` as users run it: real subprocesses, files, exit codes."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -327,3 +328,224 @@ def test_a_layout_file_trains_and_its_table_remembers_the_layout(tmp_path):
     again = run_cli("--eval", "r/qtable.npz", "--env", "grid", cwd=tmp_path)
     assert again.returncode == 0, again.stderr
     assert "the target reached by a shortest path" in again.stdout
+
+
+# ------------------------------------------------------------- floors and limits
+def test_every_floor_gets_its_suggested_time_limit_and_a_hint_when_it_falls_short(tmp_path, capsys):
+    out = tmp_path / "run"
+    args = ["--env", "grid", "--rows", "10", "--cols", "10", "--episodes", "150", "--no-gif",
+            "--out", str(out)]  # fmt: skip
+    assert train_cli.main(args) == 0
+    stdout = capsys.readouterr().out.splitlines()
+    assert stdout[0].endswith("were truncated at 1200 steps")  # the exact 98 % limit of 10 x 10
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["max_episode_steps"] == 1200
+    missed = 81 - summary["evaluation"]["reached"]
+    assert missed > 0
+    hints = [line for line in stdout if line.startswith("the greedy policy misses")]
+    assert hints == [
+        f"the greedy policy misses {missed} of 81 targets: try more episodes "
+        "(--episodes 600) or a longer time limit (--max-steps 2400)"
+    ]
+
+
+def test_max_steps_sets_the_time_limit_and_is_recorded(tmp_path, capsys):
+    out = tmp_path / "run"
+    args = ["--env", "grid", "--episodes", "40", "--max-steps", "5", "--no-gif", "--quiet",
+            "--out", str(out)]  # fmt: skip
+    assert train_cli.main(args) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["max_episode_steps"] == 5
+    assert summary["training"]["total_steps"] <= 5 * 40
+    assert summary["training"]["truncated"] > 0
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--rows", "300", "--cols", "300"],
+         r"a 300x300 floor needs a Q-table of 241\.4 GiB and 1000 episodes need .* more than "
+         r"the 2\.0 GiB"),
+        (["--episodes", "999999999999"], r"and 999999999999 episodes need 23\.6 TiB of records"),
+        (["--rows", "100000"], "argument --rows: expected 2 to 512 rows, got 100000"),
+        (["--max-steps", "0"], "argument --max-steps: expected a positive number of steps, got 0"),
+        (["--out", ""], "argument --out: expected a folder, got an empty path"),
+    ],
+)  # fmt: skip
+def test_runs_too_big_for_memory_are_refused_before_anything_is_allocated(
+    tmp_path, monkeypatch, capsys, args, message
+):
+    monkeypatch.chdir(tmp_path)
+    assert train_cli.main(["--env", "grid", *args]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert len(err.splitlines()) == 1
+    assert re.search(message, err), err
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ run folders
+SMALL_RUN = ["--env", "grid", "--episodes", "30", "--no-gif", "--quiet"]
+
+
+def test_a_folder_holding_a_run_is_refused_unless_overwritten(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert train_cli.main(["--env", "grid", "--episodes", "30", "--quiet", "--out", str(out)]) == 0
+    assert (out / "episode.gif").exists()
+    assert train_cli.main([*SMALL_RUN, "--seed", "5", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "holds an earlier run (episode.gif, learning_curve.png, qtable.npz, summary.json)" in err
+    assert "--overwrite" in err
+    assert train_cli.main([*SMALL_RUN, "--seed", "5", "--out", str(out), "--overwrite"]) == 0
+    # Only the new run's files: the old GIF is gone, the table and summary agree.
+    assert sorted(p.name for p in out.iterdir()) == [
+        "learning_curve.png", "qtable.npz", "summary.json"
+    ]  # fmt: skip
+    _, metadata = load_q_table(out / "qtable.npz")
+    assert metadata["seed"] == json.loads((out / "summary.json").read_text())["config"]["seed"] == 5
+
+
+def test_a_folder_with_other_files_is_never_used(tmp_path, capsys):
+    (tmp_path / "notes.txt").write_text("mine")
+    for extra in ([], ["--overwrite"]):
+        assert train_cli.main([*SMALL_RUN, "--out", str(tmp_path), *extra]) == 2
+        assert "is not empty (notes.txt)" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_a_folder_in_use_by_another_run_is_refused(tmp_path, capsys):
+    from warehouse_phys.runfolder import RunFolder
+
+    out = tmp_path / "run"
+    with RunFolder(out, train_cli.RUN_FILES):  # another run holds it
+        assert train_cli.main([*SMALL_RUN, "--out", str(out), "--overwrite"]) == 2
+    assert "is in use by another run" in capsys.readouterr().err
+    assert train_cli.main([*SMALL_RUN, "--out", str(out)]) == 0  # free again
+
+
+@pytest.mark.slow
+def test_two_trainers_racing_for_one_folder_never_mix_their_files(tmp_path):
+    out = tmp_path / "run"
+    command = [sys.executable, "-m", "warehouse_phys.train", *SMALL_RUN, "--out", str(out)]
+    runs = [
+        subprocess.Popen(
+            [*command, "--seed", str(seed)],
+            cwd=tmp_path,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )  # fmt: skip
+        for seed in (1, 2)
+    ]
+    codes = []
+    for run in runs:
+        run.communicate(timeout=120)
+        codes.append(run.returncode)
+    assert sorted(codes) == [0, 2]
+    _, metadata = load_q_table(out / "qtable.npz")
+    winner = 1 + codes.index(0)
+    assert metadata["seed"] == winner
+    assert json.loads((out / "summary.json").read_text())["config"]["seed"] == winner
+
+
+def test_leftover_temporary_files_are_removed_by_the_next_run(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / ".qtable.npz.k1ll3d.tmp").write_bytes(b"")  # what a killed run leaves
+    (out / ".summary.json.x.tmp").write_bytes(b"{")
+    assert train_cli.main([*SMALL_RUN, "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [
+        "learning_curve.png", "qtable.npz", "summary.json"
+    ]  # fmt: skip
+
+
+def test_the_folder_is_created_and_proven_writable_before_training(tmp_path, monkeypatch):
+    out = tmp_path / "deep" / "run"
+    real_train = train_cli.train
+
+    def checking_train(*args, **kwargs):
+        assert out.is_dir()
+        assert list(out.iterdir()) == []  # the probe file is gone again
+        return real_train(*args, **kwargs)
+
+    monkeypatch.setattr(train_cli, "train", checking_train)
+    assert train_cli.main([*SMALL_RUN, "--out", str(out)]) == 0
+
+
+def test_a_failed_write_exits_1_naming_the_file_and_keeps_the_complete_ones(
+    tmp_path, monkeypatch, capsys
+):
+    import errno
+
+    import warehouse_phys.plots as plots
+
+    def disk_full(figure, path):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(plots, "save_figure", disk_full)
+    out = tmp_path / "run"
+    assert train_cli.main([*SMALL_RUN, "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err == (
+        f"python -m warehouse_phys.train: error: cannot write {out / 'learning_curve.png'}: "
+        f"No space left on device (qtable.npz is complete in {out})\n"
+    )
+    assert sorted(p.name for p in out.iterdir()) == ["qtable.npz"]
+    load_q_table(out / "qtable.npz")
+
+
+@pytest.mark.parametrize("where", ["training", "writing"])
+def test_an_interruption_says_what_was_written(tmp_path, monkeypatch, capsys, where):
+    import warehouse_phys.plots as plots
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(*((train_cli, "train") if where == "training" else (plots, "save_figure")),
+                        interrupt)  # fmt: skip
+    out = tmp_path / "run"
+    assert train_cli.main([*SMALL_RUN, "--out", str(out)]) == 130
+    err = capsys.readouterr().err
+    if where == "training":
+        assert err == "python -m warehouse_phys.train: interrupted; nothing was written\n"
+        assert not out.exists()  # the folder this run created is gone again
+    else:
+        assert err == (
+            f"python -m warehouse_phys.train: interrupted; qtable.npz is complete in {out}\n"
+        )
+
+
+@pytest.mark.parametrize("folder", ["/proc/warehouse_phys_run", "/sys/warehouse_phys_run"])
+def test_an_unwritable_folder_exits_1_in_one_line_before_training(tmp_path, folder):
+    result = run_cli(*SMALL_RUN, "--out", folder, cwd=tmp_path)
+    assert result.returncode == 1
+    assert result.stdout == ""
+    assert result.stderr.startswith(
+        f"python -m warehouse_phys.train: error: cannot write {folder}: "
+    )
+    assert len(result.stderr.splitlines()) == 1
+
+
+# ------------------------------------------------------------------ no display
+def without_display():
+    env = dict(os.environ)
+    for name in ("SDL_VIDEODRIVER", "DISPLAY", "WAYLAND_DISPLAY"):
+        env.pop(name, None)
+    return env
+
+
+@pytest.mark.slow
+def test_render_without_a_display_exits_1_before_training(tmp_path):
+    started = time.monotonic()
+    result = subprocess.run(
+        [sys.executable, "-m", "warehouse_phys.train", *SMALL_RUN, "--render"],
+        cwd=tmp_path, capture_output=True, text=True, env=without_display(), timeout=60,
+    )  # fmt: skip
+    assert time.monotonic() - started < 30
+    assert result.returncode == 1
+    assert result.stderr.startswith(
+        "python -m warehouse_phys.train: error: cannot open a window: there is no display"
+    )
+    assert "xvfb-run" in result.stderr
+    assert len(result.stderr.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []

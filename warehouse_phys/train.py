@@ -88,6 +88,13 @@ def _fraction(low_open: bool) -> Any:
     return parse
 
 
+def _folder(text: str) -> Path:
+    """An argument type: a folder's path, never the empty string (which means ".")."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a folder, got an empty path")
+    return Path(text)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command line's argument parser."""
     defaults = QLearningConfig()
@@ -123,7 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--out",
-        type=Path,
+        type=_folder,
         help="run folder to write (default runs/<env>-seed<seed>-<time>)",
     )
     parser.add_argument(
@@ -186,8 +193,6 @@ def _written(run: list[RunFolder], *, interrupted: bool = False) -> str:
 # ----------------------------------------------------------------- training
 def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
     kind = args.env or DEFAULT_ENV
-    if args.out is not None and not str(args.out).strip():
-        raise UsageError("--out must name a folder")
     floor = floor_from_args(args)
     episodes = args.episodes
     if episodes is None:
