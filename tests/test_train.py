@@ -427,16 +427,8 @@ def test_a_folder_in_use_by_another_run_is_refused(tmp_path, capsys):
 def test_two_trainers_racing_for_one_folder_never_mix_their_files(tmp_path):
     out = tmp_path / "run"
     command = [sys.executable, "-m", "warehouse_phys.train", *SMALL_RUN, "--out", str(out)]
-    runs = [
-        subprocess.Popen(
-            [*command, "--seed", str(seed)],
-            cwd=tmp_path,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )  # fmt: skip
-        for seed in (1, 2)
-    ]
+    pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
+    runs = [subprocess.Popen([*command, "--seed", str(s)], cwd=tmp_path, **pipes) for s in (1, 2)]
     codes = []
     for run in runs:
         run.communicate(timeout=120)
