@@ -34,3 +34,23 @@ def test_permissions_are_those_of_an_ordinary_new_file(tmp_path):
     atomic_write_text(tmp_path / "atomic.txt", "x")
     modes = {stat.S_IMODE(os.stat(tmp_path / name).st_mode) for name in ("plain.txt", "atomic.txt")}
     assert len(modes) == 1, modes
+
+
+def test_the_umask_is_read_when_writing_not_at_import(tmp_path):
+    old = os.umask(0o077)
+    try:
+        path = atomic_write_text(tmp_path / "private.txt", "x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(os.stat(path).st_mode) == 0o600
+
+
+def test_leftover_temporary_files_are_found_by_name(tmp_path):
+    from warehouse_phys.atomic import temporary_files
+
+    for name in (".q.npz.abc.tmp", ".q.npz.def.tmp", ".other.npz.x.tmp", "q.npz", ".q.npz"):
+        (tmp_path / name).write_text("")
+    assert [p.name for p in temporary_files(tmp_path, "q.npz")] == [
+        ".q.npz.abc.tmp",
+        ".q.npz.def.tmp",
+    ]

@@ -232,3 +232,67 @@ def test_no_display_exits_1_with_the_reason(monkeypatch, capsys):
         "python -m warehouse_phys.play: error: cannot open a window (No available video device)\n"
     )
     assert not pygame.display.get_init()
+
+
+def test_the_counters_change_when_the_motion_has_played(session_of, monkeypatch):
+    session = session_of(PHYS_ID, grid_rows=2, grid_cols=2)  # the package is on (1, 1)
+    session.handle(key(pygame.K_RIGHT))
+    hud_during_move = []
+    real_draw = PlaySession._draw
+
+    def spy(self):
+        real_draw(self)
+        hud_during_move.append(self.hud_lines())
+
+    monkeypatch.setattr(PlaySession, "_draw", spy)
+    session.handle(key(pygame.K_DOWN))  # onto the package
+    *moving, arrived = hud_during_move
+    assert len(moving) == 14
+    for lines in moving:  # the robot is still on its way: last step's counters, no verdict
+        assert lines[0] == "step 1   reward 0   return 0"
+        assert not lines[1].startswith("Delivered")
+    assert arrived[0] == "step 2   reward 1   return 1"
+    assert arrived[1] == "Delivered in 2 steps: a shortest path!"
+
+
+@pytest.mark.slow
+def test_the_real_command_without_a_display_exits_1_at_once(tmp_path):
+    import os
+    import subprocess
+    import sys
+    import time
+
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("SDL_VIDEODRIVER", "DISPLAY", "WAYLAND_DISPLAY")}  # fmt: skip
+    started = time.monotonic()
+    result = subprocess.run(
+        [sys.executable, "-m", "warehouse_phys.play", "--env", "grid"],
+        cwd=tmp_path, capture_output=True, text=True, env=env, timeout=60,
+    )  # fmt: skip
+    assert time.monotonic() - started < 30
+    assert result.returncode == 1
+    assert result.stdout == ""
+    assert result.stderr == (
+        "python -m warehouse_phys.play: error: cannot open a window: there is no display "
+        "(DISPLAY and WAYLAND_DISPLAY are unset); run it in a desktop session, forward one "
+        "with `ssh -X`, or start a virtual one with `xvfb-run`; rgb_array rendering needs no "
+        "display\n"
+    )
+
+
+def test_sdls_invisible_drivers_count_as_no_display(monkeypatch):
+    from warehouse_phys.render import NoDisplayError, check_display
+
+    monkeypatch.delenv("SDL_VIDEODRIVER")
+    monkeypatch.setenv("DISPLAY", ":99")  # set, but SDL found nothing there
+
+    class FakeDisplay:
+        get_init = staticmethod(lambda: True)
+        get_driver = staticmethod(lambda: "offscreen")
+
+    class FakePygame:
+        display = FakeDisplay
+
+    with pytest.raises(NoDisplayError, match="chose its 'offscreen' driver, which shows nothing"):
+        check_display(FakePygame)
+    check_display()  # a DISPLAY alone passes the first check
