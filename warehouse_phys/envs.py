@@ -307,10 +307,11 @@ class WarehouseGridEnv(WarehouseEnvBase):
     - Truncation: the registered time limit, 200 steps by default. A uniformly
       random walk on the default 4 x 5 floor needs 45 steps on average and ends
       within 200 steps in 98.6 % of episodes. Bigger floors need longer:
-      ``gym.make("warehouse-robot-v0", grid_rows=8, grid_cols=8, max_episode_steps=1000)``.
+      ``gym.make("warehouse-robot-v0", grid_rows=8, grid_cols=8, max_episode_steps=700)``.
       Each preset's id has the limit that gives the same 98 % (1200, 1500 and
       900 steps for ``aisles``, ``depot`` and ``maze``);
-      :func:`warehouse_phys.layouts.suggested_time_limit` computes it for any floor.
+      :func:`warehouse_phys.layouts.suggested_time_limit` gives one for any
+      floor (exact up to 100 reachable cells, 12 steps per cell beyond).
 
     Stepping on after termination is allowed and follows the same rules, as in
     Gymnasium's toy-text environments; call ``reset()`` to start a new episode.
@@ -321,8 +322,9 @@ class WarehouseGridEnv(WarehouseEnvBase):
 
     ## Arguments
     - ``grid_rows`` (int, default 4), ``grid_cols`` (int, default 5): the floor's
-      size; each must be at least 2, or ``ValueError`` says why. With a layout
-      they come from it and may be left out.
+      size; each must be an integer from 2 to 512, or ``TypeError`` or
+      ``ValueError`` says why. With a layout they come from it and may be left
+      out (given, they must match it).
     - ``layout`` (preset name, list of strings or ``None``): a floor with
       shelves, described above. A layout that is ragged, uses an unknown
       symbol, puts the start on a shelf, has package cells the robot cannot
@@ -335,7 +337,11 @@ class WarehouseGridEnv(WarehouseEnvBase):
       drawing, never the process: see :attr:`user_closed_window`); ``"ansi"``
       returns one text line per row, each cell as ``R``, ``T``, ``#`` (shelf)
       or ``_`` and a space. Frames show a status line with the last action
-      under the grid.
+      under the grid; when the robot stands on the package it carries it, the
+      cell is framed in green and the status line says "Delivered!". A frame
+      larger than ``warehouse_phys.render.MAX_FRAME_PIXELS`` is refused when
+      the environment is built; lower ``cell_px``. With no display, ``"human"``
+      raises :class:`~warehouse_phys.render.NoDisplayError`.
     - ``cell_px`` (int, default 64): side of one cell in rendered frames, in pixels.
 
     ```python
@@ -346,6 +352,9 @@ class WarehouseGridEnv(WarehouseEnvBase):
     obs, info = env.reset(seed=0)
     obs, reward, terminated, truncated, info = env.step(warehouse_phys.Action.DOWN)
     ```
+
+    The environment can be copied (``copy.deepcopy``) and pickled at any time;
+    the copy continues exactly as the original would.
     """
 
     def _move_robot(self, action: Action) -> Cell:
@@ -417,9 +426,14 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
       (60 1/s), the physics step ``dt`` (1/60 s), ``move_duration`` (0.25 s:
       15 steps per action) and ``settle_time`` (0.1 s). Nonsense (a
       non-positive size, a robot wider than a cell, ``dt`` longer than a move,
-      a speed that could cross a wall in one step) raises ``ValueError``, and
-      so does a controller that cannot finish a move within the snap bound,
-      which is tried once when the environment is built.
+      a speed that could cross a wall in one step, a value outside
+      ``physics.SUPPORTED_RANGES``, more than 1000 steps a move) raises
+      ``ValueError`` or ``TypeError`` naming the setting, and so does a
+      controller that :func:`~warehouse_phys.physics.check_controller` finds
+      would break a promise (a move that misses the snap bound or its cell, a
+      disc deeper than ``PENETRATION_TOLERANCE`` in a wall or shelf). Every
+      setting it accepts keeps ``snap_error`` below the bound and the disc on
+      the floor, out of shelves, at every physics step.
     - ``record_path`` (bool or ``None``): whether each move records the body's
       positions for :attr:`last_move_path` and :meth:`move_frames`. ``None``
       (the default) records when rendering to ``"human"`` or ``"rgb_array"``

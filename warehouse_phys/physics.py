@@ -106,14 +106,20 @@ class PhysicsConfig:
     crosses one cell in a quarter of a second: 15 steps of 1/60 s per move,
     one rendered frame per physics step at 60 fps.
 
+    Every field is stored as a plain ``float``.
+
     Raises:
-        TypeError: if a field is not a real number.
-        ValueError: if a value makes no physical sense or cannot be simulated
-            faithfully: a non-positive or non-finite value, a robot as wide as
-            a cell, a ``dt`` longer than a move, a move that is not a whole
-            number of steps, a settle phase not shorter than the move, or a
-            top speed that would cross more than the robot's radius in one step
-            (the robot could then pass through a wall).
+        TypeError: if a field is not a real number (bools and complex numbers
+            are not).
+        ValueError: naming the field, if a value makes no physical sense or
+            cannot be simulated faithfully: a non-positive or non-finite value,
+            one outside :data:`SUPPORTED_RANGES`, a robot as wide as a cell, a
+            ``dt`` longer than a move, a move that is not a whole number of
+            steps or takes more than :data:`MAX_STEPS_PER_MOVE`, a settle
+            phase not shorter than the move, or a top speed that would cross
+            more than the robot's radius in one step (the robot could then pass
+            through a wall). Whether the controller keeps every promise is
+            :func:`check_controller`'s to decide.
     """
 
     #: Side of one floor cell [m].
