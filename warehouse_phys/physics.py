@@ -157,7 +157,10 @@ class PhysicsConfig:
             try:
                 number = float(value)
             except OverflowError:
-                raise ValueError(f"{field.name} is too large: {value}") from None
+                digits = len(str(abs(int(value))))
+                raise ValueError(
+                    f"{field.name} is too large: an integer of {digits} digits"
+                ) from None
             if not math.isfinite(number) or number <= 0:
                 raise ValueError(f"{field.name} must be positive and finite, got {value!r}")
             low, high = SUPPORTED_RANGES[field.name]
