@@ -40,6 +40,7 @@ import pymunk
 import warehouse_phys
 from warehouse_phys.atomic import atomic_write_text
 from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.layouts import suggested_time_limit
 from warehouse_phys.physics import PhysicsConfig, PhysicsWorld
 from warehouse_phys.qlearning import QLearningConfig, train
 
@@ -234,6 +235,40 @@ def physics_figures(repeats: int) -> list[Figure]:
 
 
 # -------------------------------------------------------------------- report
+def world_model_figures(repeats: int) -> list[Figure]:
+    """CPU seconds to build big floors and to give them a time limit."""
+
+    def cpu_seconds(run: Callable[[], object]) -> float:
+        start = time.process_time()
+        run()
+        return time.process_time() - start
+
+    aisles = ["S" + "." * 255] + [
+        ("." + "#" * 254 + ".") if r % 2 else "." * 256 for r in range(1, 256)
+    ]
+    figures = [
+        Figure(
+            "build a 256 x 256 floor of aisles",
+            "s",
+            repeat(lambda: cpu_seconds(lambda: WarehouseGrid.from_layout(aisles)), repeats),
+            higher_is_better=False,
+            target_at_most=1.0,
+        )
+    ]
+    for size, target in ((10, 1.0), (100, 1.0), (256, 10.0)):
+        grid = WarehouseGrid(size, size)
+        figures.append(
+            Figure(
+                f"suggested_time_limit, {size} x {size}",
+                "s",
+                repeat(lambda grid=grid: cpu_seconds(lambda: suggested_time_limit(grid)), repeats),
+                higher_is_better=False,
+                target_at_most=target,
+            )
+        )
+    return figures
+
+
 def machine() -> dict[str, object]:
     return {
         "platform": platform.platform(),
@@ -297,6 +332,7 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
             budget["episodes"], repeats
         ),
         "physics (default settings)": physics_figures(repeats),
+        "world model (CPU time)": world_model_figures(repeats),
     }
     print(f"median of {repeats} run(s) each; {platform.python_version()}, {os.cpu_count()} CPUs")
     print(report(sections))
