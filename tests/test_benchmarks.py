@@ -38,11 +38,15 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     assert re.search(r"\b15 steps", row("physics steps per action"))
     for name in ("physics step (move loop)", "physics step (Space.step)", "one move", "one reset"):
         assert " us " in row(name)
+    for size, target in ((10, 1), (100, 1), (256, 10)):
+        assert re.search(
+            rf"<= {target}(\.0)? s: (met|MISSED)$", row(f"suggested_time_limit, {size} x {size}")
+        )
 
     results = json.loads((tmp_path / "results.json").read_text())
     assert results["machine"]["cpu_count"] >= 1
     figures = [f for section in results["sections"].values() for f in section]
-    assert len(figures) == 6 + 3 + 3 + 5
+    assert len(figures) == 6 + 3 + 3 + 5 + 4
     for figure in figures:
         assert figure["value"] > 0
         assert len(figure["runs"]) == results["repeats"] == 1
