@@ -51,7 +51,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         cell_px: int = DEFAULT_CELL_PX,
         layout: str | Sequence[str] | None = None,
     ) -> None:
-        self.grid = _make_grid(grid_rows, grid_cols, layout)
+        self.grid = make_grid(grid_rows, grid_cols, layout)
         self.grid_rows = self.grid.rows
         self.grid_cols = self.grid.cols
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -181,10 +181,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         return {"optimal_steps": self.grid.optimal_steps(self._robot, self._target)}
 
     def _status_text(self) -> str:
-        if self._last_action is None:
-            return ""
-        delivered = "   Delivered!" if self._robot == self._target else ""
-        return f"Action: {self._last_action.name}{delivered}"
+        return status_line(self._last_action, self._robot == self._target)
 
     def _parse_options(self, options: dict[str, Any] | None) -> tuple[Cell, Cell | None]:
         if options is None:
@@ -572,7 +569,14 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
         return info
 
 
-def _make_grid(
+def status_line(last_action: Action | None, delivered: bool) -> str:
+    """The status line under a frame: the last action, and whether the package arrived."""
+    if last_action is None:
+        return ""
+    return f"Action: {last_action.name}{'   Delivered!' if delivered else ''}"
+
+
+def make_grid(
     grid_rows: int | None, grid_cols: int | None, layout: str | Sequence[str] | None
 ) -> WarehouseGrid:
     """The empty ``grid_rows`` x ``grid_cols`` floor (4 x 5 by default), or the layout's."""

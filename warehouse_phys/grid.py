@@ -283,6 +283,19 @@ class WarehouseGrid:
             raise ValueError(f"{tuple(target)} cannot be reached from {tuple(cell)}")
         return steps
 
+    def distance_map(self, target: tuple[int, int]) -> list[list[int]]:
+        """The fewest moves from every cell to ``target`` (``-1`` where it cannot be
+        reached, shelves included), as ``rows`` lists of ``cols`` integers; the
+        distances :meth:`optimal_steps` gives. A fresh list."""
+        if not self.shelves:
+            return [[abs(r - target[0]) + abs(c - target[1]) for c in range(self.cols)]
+                    for r in range(self.rows)]  # fmt: skip
+        return [list(row) for row in self._distances_from(target)]
+
+    def free_mask(self) -> list[list[bool]]:
+        """Whether each cell is floor (``True``) or a shelf, as ``rows`` lists of ``cols``."""
+        return [list(row) for row in self._free]
+
     def _distances_from(self, origin: tuple[int, int]) -> list[list[int]]:
         """Moves from ``origin`` to every cell (the same both ways); -1 where it cannot go."""
         rows, cols, free = self.rows, self.cols, self._free
