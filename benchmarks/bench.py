@@ -1,21 +1,27 @@
-"""Speed of the warehouse environments, measured side by side with reference environments.
+"""Speed of the warehouse environments, measured against references in the same process.
 
-One run measures, on this machine:
+The machine is shared and noisy, so no figure comes from one block of wall time.
+Each group of figures is measured in interleaved *rounds*: in every round each
+candidate and its reference run the same amount of work, one after the other
+(the order rotates from round to round), timed with CPU time
+(``time.process_time``). A figure reports the median over the rounds and its
+range, and its ratio to the reference is taken within each round, so that a slow
+moment of the machine slows both sides of the ratio.
 
-- steps per second of Gymnasium's ``FrozenLake-v1`` (the reference),
-  ``warehouse-robot-v0`` and ``warehouse-robot-phys-v0``, through ``gym.make``
-  as users call them and unwrapped, with random actions and resets;
-- frames per second of ``render_mode="rgb_array"`` for the same three;
-- the wall time of 1000 training episodes with the default trainer on both
-  warehouse environments, next to the classic tutorial's plain Q-learning loop;
-- the physics: steps per action, the cost of one physics step (as the move loop
-  runs it and through pymunk's ``Space.step``), of one move and of one reset.
+Groups and references:
 
-Each figure is the median of several repeats and is printed with its ratio to
-its reference and, where the project has one, its target. The results are
-written as JSON (``--json``) so that runs can be compared.
+- stepping: ``warehouse-robot-v0`` and ``warehouse-robot-phys-v0`` (through
+  ``gym.make`` and unwrapped) against Gymnasium's ``FrozenLake-v1``, random
+  actions with resets;
+- rendering: ``render_mode="rgb_array"`` frames against ``FrozenLake-v1``'s;
+- training: 1000 episodes of the default trainer against the classic tutorial's
+  plain Q-learning loop;
+- vector: the native ``gym.make_vec("warehouse-robot-v0")`` against Gymnasium's
+  ``SyncVectorEnv`` of the same environment, at several ``num_envs``;
+- physics: a physics step (the move loop's, against ``Space.step``), a move, a reset;
+- world model: building a big floor and suggesting time limits (no reference).
 
-    python benchmarks/bench.py [--quick] [--repeats K] [--json PATH]
+    python benchmarks/bench.py [--quick] [--rounds K] [--json PATH]
 """
 
 from __future__ import annotations
@@ -47,85 +53,147 @@ from warehouse_phys.qlearning import QLearningConfig, train
 FROZEN_LAKE = "FrozenLake-v1"
 GRID_ID = warehouse_phys.GRID_ENV_ID
 PHYS_ID = warehouse_phys.PHYSICS_ENV_ID
+MIN_ROUNDS = 7
 
 
 @dataclass
 class Figure:
-    """One measured figure: the median of ``runs``, compared with a reference figure."""
+    """One measured figure: a value per round, and its ratio to the reference per round."""
 
     name: str
     unit: str
-    runs: list[float]
+    rounds: list[float]
     reference: str | None = None
-    #: The project's target for the ratio to the reference, if it has one.
-    target_ratio: float | None = None
+    #: The figure divided by its reference's, round by round.
+    ratios: list[float] = field(default_factory=list)
     #: True when a larger value is better (a rate), False for times.
     higher_is_better: bool = True
-    #: The project's target for the value itself (a time limit), if it has one.
-    target_at_most: float | None = None
+    #: The project's target for the ratio to the reference (at least), if any.
+    target_ratio: float | None = None
+    #: The project's target for the value itself: at least (rates) or at most (times).
+    target_value: float | None = None
     value: float = field(init=False)
+    low: float = field(init=False)
+    high: float = field(init=False)
+    ratio: float | None = field(init=False)
 
     def __post_init__(self) -> None:
-        self.value = statistics.median(self.runs)
+        self.value = statistics.median(self.rounds)
+        self.low, self.high = min(self.rounds), max(self.rounds)
+        self.ratio = statistics.median(self.ratios) if self.ratios else None
+
+    @property
+    def verdict(self) -> str:
+        checks = []
+        if self.target_ratio is not None and self.ratio is not None:
+            met = self.ratio >= self.target_ratio
+            checks.append(f">= {self.target_ratio:g}x: {'met' if met else 'MISSED'}")
+        if self.target_value is not None:
+            if self.higher_is_better:
+                met, sign = self.value >= self.target_value, ">="
+            else:
+                met, sign = self.value <= self.target_value, "<="
+            checks.append(f"{sign} {self.target_value:g} {self.unit}: {'met' if met else 'MISSED'}")
+        return "; ".join(checks)
 
 
-def repeat(measure: Callable[[], float], repeats: int) -> list[float]:
-    return [measure() for _ in range(repeats)]
+@dataclass
+class Candidate:
+    """Something to time: ``run()`` does a fixed amount of work and returns how much
+    (steps, frames, ...); the figure is work per CPU second, or CPU seconds per
+    ``per`` units of work for times."""
+
+    name: str
+    unit: str
+    run: Callable[[], float]
+    higher_is_better: bool = True
+    per: float = 1.0
+    target_ratio: float | None = None
+    target_value: float | None = None
+
+
+def interleaved(
+    candidates: list[Candidate], rounds: int, reference: str | None = None
+) -> list[Figure]:
+    """Measure every candidate once per round, rotating the order; ratios to ``reference``."""
+    values: dict[str, list[float]] = {c.name: [] for c in candidates}
+    for round_index in range(rounds):
+        shift = round_index % len(candidates)
+        for candidate in candidates[shift:] + candidates[:shift]:
+            start = time.process_time()
+            work = candidate.run()
+            seconds = max(time.process_time() - start, 1e-9)
+            if candidate.higher_is_better:
+                values[candidate.name].append(work / seconds)
+            else:
+                values[candidate.name].append(seconds / work * candidate.per)
+    figures = []
+    for c in candidates:
+        ratios = []
+        if reference is not None and c.name != reference:
+            ratios = [a / b for a, b in zip(values[c.name], values[reference], strict=True)]
+        figures.append(
+            Figure(
+                c.name,
+                c.unit,
+                values[c.name],
+                reference if c.name != reference else None,
+                ratios,
+                c.higher_is_better,
+                c.target_ratio,
+                c.target_value,
+            )
+        )
+    return figures
 
 
 # ----------------------------------------------------------------- stepping
-def actions_per_second(env: gym.Env, actions: list[int], render: bool = False) -> float:
-    """Run ``actions`` (rendering after each if asked), resetting at episode ends."""
+def stepper(env: gym.Env, actions: list[int], render: bool = False) -> Callable[[], float]:
+    """A run of ``actions`` (rendering after each if asked), resetting at episode ends."""
     env.reset(seed=0)
-    step, reset = env.step, env.reset
-    start = time.perf_counter()
-    for action in actions:
-        _, _, terminated, truncated, _ = step(action)
-        if render:
-            env.render()
-        if terminated or truncated:
-            reset()
-    return len(actions) / (time.perf_counter() - start)
+    if render:
+        env.render()  # loads pygame and the sprites before any timing
+
+    def run() -> float:
+        step, reset = env.step, env.reset
+        for action in actions:
+            _, _, terminated, truncated, _ = step(action)
+            if render:
+                env.render()
+            if terminated or truncated:
+                reset()
+        return len(actions)
+
+    return run
 
 
-def stepping_figures(n_actions: int, repeats: int) -> list[Figure]:
+def stepping_figures(n_actions: int, rounds: int) -> list[Figure]:
     actions = np.random.default_rng(0).integers(4, size=n_actions).tolist()
-    reference = f"{FROZEN_LAKE} (gym.make)"
-    targets = {f"{GRID_ID} (gym.make)": 1.3, f"{PHYS_ID} (gym.make)": 0.15}
-    figures = []
+    targets = {f"{GRID_ID} (gym.make)": 4.0, f"{PHYS_ID} (gym.make)": 0.4}
+    candidates = []
     for env_id in (FROZEN_LAKE, GRID_ID, PHYS_ID):
         for how in ("gym.make", "unwrapped"):
             name = f"{env_id} ({how})"
-
-            def measure(env_id: str = env_id, how: str = how) -> float:
-                env = gym.make(env_id)
-                return actions_per_second(env if how == "gym.make" else env.unwrapped, actions)
-
-            figures.append(
-                Figure(name, "steps/s", repeat(measure, repeats), reference, targets.get(name))
+            env = gym.make(env_id)
+            env = env if how == "gym.make" else env.unwrapped
+            candidates.append(
+                Candidate(name, "steps/s", stepper(env, actions), target_ratio=targets.get(name))
             )
-    return figures
+    return interleaved(candidates, rounds, reference=f"{FROZEN_LAKE} (gym.make)")
 
 
-def rendering_figures(n_frames: int, repeats: int) -> list[Figure]:
+def rendering_figures(n_frames: int, rounds: int) -> list[Figure]:
     actions = np.random.default_rng(1).integers(4, size=n_frames).tolist()
-    reference = f"{FROZEN_LAKE} rgb_array"
-    figures = []
-    for env_id in (FROZEN_LAKE, GRID_ID, PHYS_ID):
-
-        def measure(env_id: str = env_id) -> float:
-            env = gym.make(env_id, render_mode="rgb_array")
-            env.reset(seed=0)
-            env.render()  # loads pygame and the sprites outside the timing
-            rate = actions_per_second(env, actions, render=True)
-            env.close()
-            return rate
-
-        target = None if env_id == FROZEN_LAKE else 1.0
-        figures.append(
-            Figure(f"{env_id} rgb_array", "frames/s", repeat(measure, repeats), reference, target)
+    candidates = [
+        Candidate(
+            f"{env_id} rgb_array",
+            "frames/s",
+            stepper(gym.make(env_id, render_mode="rgb_array"), actions, render=True),
+            target_ratio=None if env_id == FROZEN_LAKE else 1.0,
         )
-    return figures
+        for env_id in (FROZEN_LAKE, GRID_ID, PHYS_ID)
+    ]
+    return interleaved(candidates, rounds, reference=f"{FROZEN_LAKE} rgb_array")
 
 
 # ----------------------------------------------------------------- training
@@ -151,124 +219,164 @@ def tutorial_loop(episodes: int, seed: int = 0) -> None:
         state, _ = env.reset()
 
 
-def seconds(run: Callable[[], object]) -> float:
-    start = time.perf_counter()
-    run()
-    return time.perf_counter() - start
-
-
-def training_figures(episodes: int, repeats: int) -> list[Figure]:
+def training_figures(episodes: int, rounds: int) -> list[Figure]:
     config = QLearningConfig(episodes=episodes)
     reference = "tutorial loop (grid twin)"
-    figures = [
-        Figure(
-            reference,
-            "s",
-            repeat(lambda: seconds(lambda: tutorial_loop(episodes)), repeats),
-            higher_is_better=False,
-        )
-    ]
+
+    def once(work: Callable[[], object]) -> Callable[[], float]:
+        def run() -> float:
+            work()
+            return 1.0
+
+        return run
+
     # The targets are for the default 1000 episodes: at most 0.2 s and 3 s.
     limits = {GRID_ID: 0.2, PHYS_ID: 3.0} if episodes == 1000 else {}
+    candidates = [
+        Candidate(reference, "s", once(lambda: tutorial_loop(episodes)), higher_is_better=False)
+    ]
     for env_id in (GRID_ID, PHYS_ID):
-
-        def measure(env_id: str = env_id) -> float:
-            return seconds(lambda: train(gym.make(env_id), config))
-
-        figures.append(
-            Figure(
+        candidates.append(
+            Candidate(
                 f"trainer on {env_id}",
                 "s",
-                repeat(measure, repeats),
-                reference,
+                once(lambda env_id=env_id: train(gym.make(env_id), config)),
                 higher_is_better=False,
-                target_at_most=limits.get(env_id),
+                target_value=limits.get(env_id),
             )
         )
+    return interleaved(candidates, rounds, reference=reference)
+
+
+# ------------------------------------------------------------------- vector
+def vector_stepper(envs: gym.vector.VectorEnv, env_steps: int) -> Callable[[], float]:
+    """About ``env_steps`` sub-environment steps of random actions (autoreset included)."""
+    n = envs.num_envs
+    batches = np.random.default_rng(2).integers(4, size=(16, n))
+    calls = max(1, env_steps // n)
+    envs.reset(seed=0)
+
+    def run() -> float:
+        step = envs.step
+        for i in range(calls):
+            step(batches[i % 16])
+        return calls * n
+
+    return run
+
+
+def vector_figures(sizes: list[int], env_steps: int, rounds: int) -> list[Figure]:
+    """The native vector env against SyncVectorEnv, size by size (each its own rounds)."""
+    targets = {256: 1e7, 16384: 1e8}
+    figures = []
+    for n in sizes:
+        native = gym.make_vec(GRID_ID, num_envs=n)
+        sync = gym.make_vec(GRID_ID, num_envs=n, vectorization_mode="sync")
+        reference = f"SyncVectorEnv, {n} envs"
+        figures += interleaved(
+            [
+                Candidate(reference, "env-steps/s", vector_stepper(sync, env_steps // 10)),
+                Candidate(
+                    f"native vector env, {n} envs",
+                    "env-steps/s",
+                    vector_stepper(native, env_steps),
+                    target_value=targets.get(n),
+                ),
+            ],
+            rounds,
+            reference=reference,
+        )
+        sync.close()
     return figures
 
 
 # ------------------------------------------------------------------ physics
-def physics_figures(repeats: int) -> list[Figure]:
+def physics_figures(rounds: int) -> list[Figure]:
     config = PhysicsConfig()
     grid = WarehouseGrid(4, 5)
     n = 2000
     moves = [0, 2, 1, 3] * (n // 4)  # round trips between two cells, some into walls
 
-    def per_move() -> float:
-        world = PhysicsWorld(grid, config, (1, 1))
-        return seconds(lambda: [world.move(a) for a in moves]) / n * 1e6
-
-    def per_step(space_step: bool) -> float:
+    def stepping(space_step: bool) -> Callable[[], float]:
         world = PhysicsWorld(grid, config, (1, 1))
         world.control.position = world.centre((1, 2))
         step, target = (pymunk.Space.step, world.space) if space_step else world._stepping()
         dt, count = config.dt, n * config.steps_per_move
 
-        def run() -> None:
+        def run() -> float:
             for _ in range(count):
                 step(target, dt)
+            return count
 
-        return seconds(run) / count * 1e6
+        return run
+
+    world = PhysicsWorld(grid, config, (1, 1))
+
+    def per_move() -> float:
+        for action in moves:
+            world.move(action)
+        return n
 
     def per_reset() -> float:
-        def run() -> None:
-            for _ in range(n // 4):
-                PhysicsWorld(grid, config, (0, 0))  # each replaces the last, as reset() does
+        for _ in range(n // 4):
+            PhysicsWorld(grid, config, (0, 0))
+        return n // 4
 
-        return seconds(run) / (n // 4) * 1e6
+    reference = "physics step (Space.step)"
+    steps = interleaved(
+        [
+            Candidate(reference, "us", stepping(True), higher_is_better=False, per=1e6),
+            Candidate("physics step (move loop)", "us", stepping(False), False, per=1e6),
+        ],
+        rounds,
+        reference=reference,
+    )
+    return steps + interleaved(  # no reference for these: what a move and a reset cost
+        [
+            Candidate("one move (world.move)", "us", per_move, higher_is_better=False, per=1e6),
+            Candidate("one reset (new world)", "us", per_reset, higher_is_better=False, per=1e6),
+        ],
+        rounds,
+    )
 
-    fast = "physics step (move loop)"
-    return [
-        Figure("physics steps per action", "steps", [float(config.steps_per_move)]),
-        Figure(fast, "us", repeat(lambda: per_step(False), repeats), higher_is_better=False),
-        Figure(
-            "physics step (Space.step)",
-            "us",
-            repeat(lambda: per_step(True), repeats),
-            fast,
-            higher_is_better=False,
-        ),
-        Figure("one move (world.move)", "us", repeat(per_move, repeats), higher_is_better=False),
-        Figure("one reset (new world)", "us", repeat(per_reset, repeats), higher_is_better=False),
-    ]
 
-
-# -------------------------------------------------------------------- report
-def world_model_figures(repeats: int) -> list[Figure]:
-    """CPU seconds to build big floors and to give them a time limit."""
-
-    def cpu_seconds(run: Callable[[], object]) -> float:
-        start = time.process_time()
-        run()
-        return time.process_time() - start
-
+def world_model_figures(rounds: int) -> list[Figure]:
+    """CPU seconds to build a big floor and to give floors a time limit."""
     aisles = ["S" + "." * 255] + [
         ("." + "#" * 254 + ".") if r % 2 else "." * 256 for r in range(1, 256)
     ]
-    figures = [
-        Figure(
+
+    def timed(work: Callable[[], object]) -> Callable[[], float]:
+        def run() -> float:
+            work()
+            return 1.0
+
+        return run
+
+    candidates = [
+        Candidate(
             "build a 256 x 256 floor of aisles",
             "s",
-            repeat(lambda: cpu_seconds(lambda: WarehouseGrid.from_layout(aisles)), repeats),
+            timed(lambda: WarehouseGrid.from_layout(aisles)),
             higher_is_better=False,
-            target_at_most=1.0,
+            target_value=1.0,
         )
     ]
     for size, target in ((10, 1.0), (100, 1.0), (256, 10.0)):
         grid = WarehouseGrid(size, size)
-        figures.append(
-            Figure(
+        candidates.append(
+            Candidate(
                 f"suggested_time_limit, {size} x {size}",
                 "s",
-                repeat(lambda grid=grid: cpu_seconds(lambda: suggested_time_limit(grid)), repeats),
+                timed(lambda grid=grid: suggested_time_limit(grid)),
                 higher_is_better=False,
-                target_at_most=target,
+                target_value=target,
             )
         )
-    return figures
+    return interleaved(candidates, rounds)
 
 
+# ------------------------------------------------------------------ report
 def machine() -> dict[str, object]:
     return {
         "platform": platform.platform(),
@@ -284,62 +392,80 @@ def machine() -> dict[str, object]:
     }
 
 
+def _number(value: float) -> str:
+    if value >= 100:
+        return f"{value:,.0f}"
+    return f"{value:.3g}"
+
+
 def report(sections: dict[str, list[Figure]]) -> str:
     lines = []
     for title, figures in sections.items():
-        values = {f.name: f.value for f in figures}
         lines.append(f"\n{title}")
-        lines.append(f"  {'':<42} {'median':>12} {'unit':<8} {'vs reference':>14}  target")
+        lines.append(
+            f"  {'':<40} {'median':>12} {'min - max':>25} {'unit':<12} {'vs reference':>20}  target"
+        )
         for f in figures:
-            ratio, verdict = "", ""
-            if f.reference is not None:
-                ratio_value = f.value / values[f.reference]
-                ratio = f"{ratio_value:.2f}x"
-                if f.target_ratio is not None:
-                    met = ratio_value >= f.target_ratio
-                    verdict = f">= {f.target_ratio:g}x: {'met' if met else 'MISSED'}"
-            if f.target_at_most is not None:
-                met = f.value <= f.target_at_most
-                verdict = f"<= {f.target_at_most:g} {f.unit}: {'met' if met else 'MISSED'}"
-            value = f"{f.value:,.0f}" if f.value >= 100 else f"{f.value:.3g}"
-            lines.append(f"  {f.name:<42} {value:>12} {f.unit:<8} {ratio:>14}  {verdict}")
+            spread = f"{_number(f.low)} - {_number(f.high)}"
+            ratio = ""
+            if f.ratio is not None:
+                ratio = f"{f.ratio:.2f}x ({min(f.ratios):.2f}-{max(f.ratios):.2f})"
+            elif f.reference is None and any(g.reference == f.name for g in figures):
+                ratio = "reference"
+            lines.append(
+                f"  {f.name:<40} {_number(f.value):>12} {spread:>25} {f.unit:<12} "
+                f"{ratio:>20}  {f.verdict}".rstrip()
+            )
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> dict[str, object]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke test")
-    parser.add_argument("--repeats", type=int, default=5, help="runs per figure (median)")
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        default=MIN_ROUNDS,
+        help=f"interleaved rounds per group (default and least for a report: {MIN_ROUNDS})",
+    )
     parser.add_argument("--json", type=Path, help="write the results to this JSON file")
     args = parser.parse_args(argv)
-    if args.repeats < 1:
-        parser.error("--repeats must be at least 1")
-    repeats = 1 if args.quick else args.repeats
+    if args.rounds < 1:
+        parser.error("--rounds must be at least 1")
+    rounds = 2 if args.quick else args.rounds
     budget = {
-        "actions": 300 if args.quick else 100_000,
-        "frames": 20 if args.quick else 500,
+        "actions": 300 if args.quick else 20_000,
+        "frames": 10 if args.quick else 100,
         "episodes": 20 if args.quick else 1000,
+        "vector_sizes": [1, 64] if args.quick else [1, 64, 256, 1024, 16384],
+        "vector_env_steps": 5_000 if args.quick else 400_000,
     }
-
     sections = {
-        f"stepping ({budget['actions']:,} random actions, resets included)": stepping_figures(
-            budget["actions"], repeats
+        f"stepping ({budget['actions']:,} random actions a round, resets included)": (
+            stepping_figures(budget["actions"], rounds)
         ),
-        f"rendering rgb_array ({budget['frames']} steps, a frame after each)": rendering_figures(
-            budget["frames"], repeats
+        f"rendering rgb_array ({budget['frames']} steps a round, a frame after each)": (
+            rendering_figures(budget["frames"], rounds)
         ),
-        f"training ({budget['episodes']} episodes, default trainer)": training_figures(
-            budget["episodes"], repeats
+        f"training ({budget['episodes']} episodes a round, default trainer)": (
+            training_figures(budget["episodes"], rounds)
         ),
-        "physics (default settings)": physics_figures(repeats),
-        "world model (CPU time)": world_model_figures(repeats),
+        "vector (random actions, autoreset included)": vector_figures(
+            budget["vector_sizes"], budget["vector_env_steps"], rounds
+        ),
+        "physics (default settings)": physics_figures(rounds),
+        "world model": world_model_figures(rounds),
     }
-    print(f"median of {repeats} run(s) each; {platform.python_version()}, {os.cpu_count()} CPUs")
+    print(
+        f"median of {rounds} interleaved round(s), CPU time; "
+        f"Python {platform.python_version()}, {os.cpu_count()} CPUs"
+    )
     print(report(sections))
     results = {
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "machine": machine(),
-        "repeats": repeats,
+        "rounds": rounds,
+        "timer": "time.process_time",
         "budget": budget,
         "sections": {title: [asdict(f) for f in figures] for title, figures in sections.items()},
     }
