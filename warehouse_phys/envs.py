@@ -19,7 +19,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from warehouse_phys.grid import Action, Cell, WarehouseGrid, check_size
+from warehouse_phys.grid import Action, Cell, WarehouseGrid, check_size, move_table
 from warehouse_phys.layouts import resolve_layout
 from warehouse_phys.physics import PhysicsConfig, PhysicsWorld, check_controller
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
@@ -68,6 +68,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
 
         self._robot: Cell | None = None
         self._target: Cell | None = None
+        #: ``grid.move`` as nested lists, ``moves[row][col][action]``, on small floors.
+        self._moves: list[list[tuple[Cell, ...]]] | None = None
         self._last_action: Action | None = None
         # Built in every mode so that a bad cell_px fails here; it loads no pygame until drawing.
         self._renderer = WarehouseRenderer(
@@ -355,7 +357,15 @@ class WarehouseGridEnv(WarehouseEnvBase):
     """
 
     def _move_robot(self, action: Action) -> Cell:
-        return self.grid.move(self._robot, action)
+        moves = self._moves
+        if moves is None:
+            return self.grid.move(self._robot, action)
+        robot = self._robot
+        return moves[robot[0]][robot[1]][action]
+
+    def _start_episode(self) -> None:
+        if self._moves is None:  # built once; shared by every environment on the same floor
+            self._moves = move_table(self.grid)
 
 
 class WarehousePhysicsEnv(WarehouseEnvBase):
@@ -564,9 +574,10 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
                 return
 
     def _get_info(self) -> dict[str, Any]:
-        info = super()._get_info()
-        info["snap_error"] = self._snap_error
-        return info
+        return {
+            "optimal_steps": self.grid.optimal_steps(self._robot, self._target),
+            "snap_error": self._snap_error,
+        }
 
 
 def status_line(last_action: Action | None, delivered: bool) -> str:
@@ -599,6 +610,9 @@ def make_grid(
 
 def _checked_action(action: object) -> Action:
     """The :class:`Action` for ``action``, or a ``TypeError``/``ValueError`` naming it."""
+    kind = type(action)
+    if (kind is int or kind is np.int64) and 0 <= action < len(_ACTIONS):  # the usual cases
+        return _ACTIONS[action]
     is_integer = (
         isinstance(action, (int, np.integer))
         and not isinstance(action, (bool, np.timedelta64))  # numpy counts durations as integers

@@ -7,6 +7,7 @@ gymnasium, pymunk nor pygame: only numpy, for the random generator type.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from collections.abc import Iterator, Sequence
 from enum import IntEnum
@@ -358,6 +359,34 @@ class WarehouseGrid:
         if cell[0] == target[0] and cell[1] == target[1]:
             return TARGET_REWARD, True
         return 0.0, False
+
+
+#: Largest floor given a move table by :func:`move_table` [cells].
+MOVE_TABLE_CELLS = 4096
+
+
+@functools.lru_cache(maxsize=64)
+def _move_table(grid_key: tuple) -> list[list[tuple[Cell, ...]]] | None:
+    rows, cols, layout = grid_key
+    grid = WarehouseGrid(rows, cols) if layout is None else WarehouseGrid.from_layout(layout)
+    return [
+        [tuple(grid.move((r, c), action) for action in range(len(ACTION_DELTAS)))
+         for c in range(cols)]
+        for r in range(rows)
+    ]  # fmt: skip
+
+
+def move_table(grid: WarehouseGrid) -> list[list[tuple[Cell, ...]]] | None:
+    """``grid.move`` for every cell and action, as ``table[row][col][action]``.
+
+    One look-up instead of a call: the grid twin's step uses it. Floors of
+    the same size and layout share one table; floors of more than
+    :data:`MOVE_TABLE_CELLS` cells get ``None`` (the table would cost more
+    memory than it saves time).
+    """
+    if grid.rows * grid.cols > MOVE_TABLE_CELLS:
+        return None
+    return _move_table((grid.rows, grid.cols, grid.layout))
 
 
 def check_size(name: str, value: object) -> int:

@@ -257,7 +257,7 @@ class PhysicsWorld:
         self._dt = config.dt
         self._drive_steps = config.steps_per_move - config.settle_steps
         self._settle_steps = config.settle_steps
-        self._path: list[pymunk.Vec2d] = []
+        self._path: list[tuple[float, float]] = []
 
         space = pymunk.Space()
         space.threads = 1  # one thread: the solver order, hence every bit, is reproducible
@@ -313,48 +313,51 @@ class PhysicsWorld:
             RuntimeError: if the body's position is not finite or it left the
                 floor, which a supported configuration never allows.
         """
+        # Cells here are plain (row, col) tuples and centres are computed in place
+        # (as centre() and cell_at() do): this is the hot path of every action.
+        size, floor = self._cell_size, math.floor
         d_row, d_col = ACTION_DELTAS[action]
-        aim = Cell(self.cell[0] + d_row, self.cell[1] + d_col)  # beyond a wall, if one is there
+        aim = (self.cell[0] + d_row, self.cell[1] + d_col)  # beyond a wall, if one is there
         self._path.clear()
-        self.control.position = self.centre(aim)
-        x, y = self._advance(self._drive_steps)
-        settle_on = self.cell_at(x, y)
+        step, space = self._stepping()
+        _set_position(self.control, ((aim[1] + 0.5) * size, (aim[0] + 0.5) * size))
+        x, y = self._advance(step, space, self._drive_steps)
+        settle_on = (floor(y / size), floor(x / size))
         if settle_on != aim:  # a wall stopped the body: drive back to the centre it is nearest
-            self.control.position = self.centre(settle_on)
-        x, y = self._advance(self._settle_steps)
+            _set_position(self.control, ((settle_on[1] + 0.5) * size, (settle_on[0] + 0.5) * size))
+        x, y = self._advance(step, space, self._settle_steps)
 
         if not (math.isfinite(x) and math.isfinite(y)):
             raise RuntimeError(f"the robot's position became {x!r}, {y!r}")
-        cell = self.cell_at(x, y)
+        cell = Cell(floor(y / size), floor(x / size))
         if not self.grid.is_free(cell):
             raise RuntimeError(
                 f"the robot left the floor or entered a shelf: it is at ({x:.3f}, {y:.3f}) m"
             )
-        centre = self.centre(cell)
-        snap_error = math.hypot(x - centre[0], y - centre[1]) / self._cell_size
+        centre = ((cell[1] + 0.5) * size, (cell[0] + 0.5) * size)
+        snap_error = math.hypot(x - centre[0], y - centre[1]) / size
         # The one teleport: onto the centre, at rest, with the aim on it too.
-        robot = self.robot
-        robot.position = centre
-        robot.velocity = (0.0, 0.0)
-        robot.angular_velocity = 0.0
+        _place_at_rest(self.robot, centre)
         if cell != settle_on:
-            self.control.position = centre
+            _set_position(self.control, centre)
         self.cell = cell
         return MoveResult(cell, snap_error)
 
-    def _advance(self, steps: int) -> tuple[float, float]:
-        """Run ``steps`` physics steps, recording the path if asked; the body's final ``(x, y)``."""
-        step, space = self._stepping()
-        dt, robot = self._dt, self.robot
+    def _advance(
+        self, step: Callable[[Any, float], None], space: Any, steps: int
+    ) -> tuple[float, float]:
+        """Run ``steps`` physics steps with ``step(space, dt)`` (see :meth:`_stepping`),
+        recording the path if asked; the body's final ``(x, y)``."""
+        dt = self._dt
         if self.record_path:
-            path = self._path
+            path, robot = self._path, self.robot
             for _ in range(steps):
                 step(space, dt)
-                path.append(robot.position)
+                path.append(_get_position(robot))
             return path[-1]
         for _ in range(steps):
             step(space, dt)
-        return robot.position
+        return _get_position(self.robot)
 
     def _stepping(self) -> tuple[Callable[[Any, float], None], Any]:
         """The function that advances the space by one ``dt``, and what it takes first.
@@ -416,24 +419,66 @@ def speed_profile(
     return times, distances / config.dt
 
 
-def _chipmunk_space_step() -> Callable[[Any, float], None] | None:
-    """chipmunk's ``cpSpaceStep``, or ``None`` if this pymunk does not expose it.
+def _chipmunk() -> Any:
+    """chipmunk's C functions as pymunk binds them, or ``None`` if this pymunk hides them.
 
-    ``Space.step`` wraps it in queues and checks that matter only while bodies
-    are being added or removed or collision callbacks run; a built world has
-    none of those. Calling the C function directly halves the cost of a
-    physics step (about 0.7 against 1.4 microseconds on the development
-    machine), which is most of the cost of an action. A test checks that both
-    give bit-identical paths.
+    ``Space.step`` wraps ``cpSpaceStep`` in queues and checks that matter only
+    while bodies are being added or removed or collision callbacks run, and
+    pymunk's body properties pass through a generic ``__setattr__`` and build a
+    ``Vec2d`` on every read; a move needs none of that. Calling the C functions
+    directly makes a move about half as costly. Every call reads the C handle
+    from its pymunk object (``space._space``, ``body._body``) at that moment,
+    so no handle outlives its object. Tests check that both ways give
+    bit-identical paths.
     """
     try:
         from pymunk._chipmunk import lib
     except ImportError:  # pragma: no cover - depends on pymunk's internals
         return None
-    return getattr(lib, "cpSpaceStep", None)
+    needed = (
+        "cpSpaceStep",
+        "cpBodyGetPosition",
+        "cpBodySetPosition",
+        "cpBodySetVelocity",
+        "cpBodySetAngularVelocity",
+    )
+    return lib if all(hasattr(lib, name) for name in needed) else None
 
 
-_CP_SPACE_STEP = _chipmunk_space_step()
+_LIB = _chipmunk()
+_CP_SPACE_STEP = None if _LIB is None else _LIB.cpSpaceStep
+
+if _LIB is not None:
+
+    def _get_position(body: pymunk.Body) -> tuple[float, float]:
+        """The body's position ``(x, y)`` [m]."""
+        position = _LIB.cpBodyGetPosition(body._body)
+        return position.x, position.y
+
+    def _set_position(body: pymunk.Body, position: tuple[float, float]) -> None:
+        """Place the body at ``position`` [m] (as ``body.position = position``)."""
+        _LIB.cpBodySetPosition(body._body, position)
+
+    def _place_at_rest(body: pymunk.Body, position: tuple[float, float]) -> None:
+        """Place the body at ``position`` [m] with no linear or angular velocity."""
+        handle = body._body
+        _LIB.cpBodySetPosition(handle, position)
+        _LIB.cpBodySetVelocity(handle, (0.0, 0.0))
+        _LIB.cpBodySetAngularVelocity(handle, 0.0)
+
+else:  # pragma: no cover - the same through pymunk's properties
+
+    def _get_position(body: pymunk.Body) -> tuple[float, float]:
+        position = body.position
+        return position.x, position.y
+
+    def _set_position(body: pymunk.Body, position: tuple[float, float]) -> None:
+        body.position = position
+
+    def _place_at_rest(body: pymunk.Body, position: tuple[float, float]) -> None:
+        body.position = position
+        body.velocity = (0.0, 0.0)
+        body.angular_velocity = 0.0
 
 
 def _box(
