@@ -315,3 +315,14 @@ def test_rgb_array_frames_are_the_single_environments():
     ansi = gym.make_vec(GRID_ID, num_envs=2, render_mode="ansi")
     ansi.reset(seed=0)
     assert all(frame.count("R") == 1 for frame in ansi.render())
+
+
+def test_returned_arrays_are_never_reused():
+    envs = gym.make_vec(GRID_ID, num_envs=4)
+    first, infos = envs.reset(seed=0)
+    kept = first.copy(), infos["optimal_steps"].copy()
+    second = envs.step(np.array([2, 1, 2, 1]))
+    envs.step(np.array([2, 1, 2, 1]))
+    assert np.array_equal(first, kept[0])
+    assert np.array_equal(infos["optimal_steps"], kept[1])
+    assert not np.shares_memory(second[0], envs.step(np.zeros(4, dtype=int))[0])
