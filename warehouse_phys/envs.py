@@ -150,9 +150,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
             )
         if self.render_mode == "rgb_array":
             return self._renderer.rgb_array(self._robot, self._target, self._status_text())
-        self._renderer.title = (
-            f"warehouse_phys: {self.spec.id if self.spec else type(self).__name__}"
-        )
+        self._renderer.title = self._window_title()
         self._renderer.show(self._robot, self._target, self._status_text())
         return None
 
@@ -188,6 +186,10 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
 
     def _get_info(self) -> dict[str, Any]:
         return {"optimal_steps": self.grid.optimal_steps(self._robot, self._target)}
+
+    def _window_title(self) -> str:
+        """The ``human`` window's caption: the id the environment was made with."""
+        return f"warehouse_phys: {self.spec.id if self.spec else type(self).__name__}"
 
     def _status_text(self) -> str:
         return status_line(self._last_action, self._robot == self._target)
@@ -565,9 +567,7 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
         self._snap_error = 0.0
 
     def _show_move(self) -> None:
-        self._renderer.title = (
-            f"warehouse_phys: {self.spec.id if self.spec else type(self).__name__}"
-        )
+        self._renderer.title = self._window_title()
         # Real time: move_duration * render_fps frames, each the body's position
         # at the end of its frame interval; the last one is the snapped frame
         # that render() draws next.
