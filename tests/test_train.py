@@ -453,14 +453,16 @@ def test_leftover_temporary_files_are_removed_by_the_next_run(tmp_path):
 
 def test_the_folder_is_created_and_proven_writable_before_training(tmp_path, monkeypatch):
     out = tmp_path / "deep" / "run"
-    real_train = train_cli.train
+    import warehouse_phys.runs as runs
+
+    real_train = runs.train
 
     def checking_train(*args, **kwargs):
         assert out.is_dir()
         assert list(out.iterdir()) == []  # the probe file is gone again
         return real_train(*args, **kwargs)
 
-    monkeypatch.setattr(train_cli, "train", checking_train)
+    monkeypatch.setattr(runs, "train", checking_train)
     assert train_cli.main([*SMALL_RUN, "--out", str(out)]) == 0
 
 
@@ -489,11 +491,12 @@ def test_a_failed_write_exits_1_naming_the_file_and_keeps_the_complete_ones(
 @pytest.mark.parametrize("where", ["training", "writing"])
 def test_an_interruption_says_what_was_written(tmp_path, monkeypatch, capsys, where):
     import warehouse_phys.plots as plots
+    import warehouse_phys.runs as runs
 
     def interrupt(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(*((train_cli, "train") if where == "training" else (plots, "save_figure")),
+    monkeypatch.setattr(*((runs, "train") if where == "training" else (plots, "save_figure")),
                         interrupt)  # fmt: skip
     out = tmp_path / "run"
     assert train_cli.main([*SMALL_RUN, "--out", str(out)]) == 130

@@ -8,18 +8,13 @@ pick an environment with ``--env grid|phys`` and a floor with ``--rows``,
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NoReturn
 
-import gymnasium as gym
-
-import warehouse_phys
 from warehouse_phys.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
-from warehouse_phys.layouts import PRESETS, preset_ids, resolve_layout, suggested_time_limit
+from warehouse_phys.layouts import PRESETS
+from warehouse_phys.runs import ENVIRONMENTS, Floor
 
-#: The ``--env`` names and the environment ids they stand for.
-ENVIRONMENTS = {"phys": warehouse_phys.PHYSICS_ENV_ID, "grid": warehouse_phys.GRID_ENV_ID}
 DEFAULT_ENV = "phys"
 
 
@@ -86,59 +81,6 @@ def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = ""
         help=f"a warehouse layout: a preset ({', '.join(PRESETS)}) or a text file "
         "of rows ('.' floor, '#' shelf, 'P' package cell, 'S' start)",
     )
-
-
-@dataclass(frozen=True)
-class Floor:
-    """The floor to use: the empty one, a preset, or a layout's rows; and its time limit."""
-
-    rows: int | None = None
-    cols: int | None = None
-    preset: str | None = None
-    layout: tuple[str, ...] | None = None
-    #: A short name for run folders: the preset's name or the layout file's stem.
-    label: str | None = None
-    #: The episodes' time limit; ``None`` for the floor's suggested one.
-    max_steps: int | None = None
-
-    def grid(self) -> WarehouseGrid:
-        """The world model of this floor."""
-        if self.preset is not None:
-            return resolve_layout(self.preset)
-        if self.layout is not None:
-            return WarehouseGrid.from_layout(self.layout)
-        return WarehouseGrid(self.rows or 4, self.cols or 5)
-
-    def time_limit(self) -> int:
-        """``max_steps``, or the preset's registered limit, or
-        :func:`~warehouse_phys.layouts.suggested_time_limit` of the floor."""
-        if self.max_steps is not None:
-            return self.max_steps
-        if self.preset is not None:
-            return PRESETS[self.preset].max_episode_steps
-        return suggested_time_limit(self.grid())
-
-    def make(self, kind: str, render_mode: str | None = None) -> gym.Env:
-        """The ``kind`` ("grid" or "phys") environment on this floor, through ``gym.make``."""
-        limit = self.time_limit()
-        if self.preset is not None:
-            grid_id, physics_id = preset_ids(self.preset)
-            env_id = physics_id if kind == "phys" else grid_id
-            return gym.make(env_id, render_mode=render_mode, max_episode_steps=limit)
-        if self.layout is not None:
-            return gym.make(
-                ENVIRONMENTS[kind],
-                layout=list(self.layout),
-                render_mode=render_mode,
-                max_episode_steps=limit,
-            )
-        return gym.make(
-            ENVIRONMENTS[kind],
-            grid_rows=self.rows or 4,
-            grid_cols=self.cols or 5,
-            render_mode=render_mode,
-            max_episode_steps=limit,
-        )
 
 
 def floor_from_args(args: argparse.Namespace) -> Floor:

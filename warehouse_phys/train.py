@@ -21,18 +21,13 @@ message, before anything is written. The algorithm lives in
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
-from dataclasses import asdict
-from functools import partial
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 
-import warehouse_phys
-from warehouse_phys.atomic import atomic_write_text
 from warehouse_phys.cli import (
     DEFAULT_ENV,
     ArgumentParser,
@@ -48,27 +43,24 @@ from warehouse_phys.qlearning import (
     Evaluation,
     QLearningConfig,
     QTableError,
-    TrainingResult,
     check_training_memory,
     evaluate,
     greedy_action,
     load_q_table,
-    save_q_table,
-    table_metadata,
-    train,
 )
-from warehouse_phys.recording import EpisodeRecording, record_episode
 from warehouse_phys.render import NoDisplayError, check_display
 from warehouse_phys.runfolder import RunFolder, RunFolderError, RunWriteError
+from warehouse_phys.runs import (
+    CURVE_FILE,
+    GIF_FILE,
+    RUN_FILES,
+    SUMMARY_FILE,
+    TABLE_FILE,
+    train_run,
+)
 
 PROG = "python -m warehouse_phys.train"
 DEFAULT_RUNS_DIR = Path("runs")
-TABLE_FILE, CURVE_FILE, SUMMARY_FILE = "qtable.npz", "learning_curve.png", "summary.json"
-GIF_FILE = "episode.gif"
-#: Every file a run may write into its folder.
-RUN_FILES = (TABLE_FILE, CURVE_FILE, GIF_FILE, SUMMARY_FILE)
-#: The greedy episode in the GIF stops after this many steps, should the policy wander [steps].
-GIF_MAX_STEPS = 60
 
 
 def _fraction(low_open: bool) -> Any:
@@ -198,9 +190,9 @@ def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
     if episodes is None:
         episodes = PRESETS[floor.preset].training_episodes if floor.preset else 1000
     config = QLearningConfig(episodes=episodes, alpha=args.alpha, gamma=args.gamma, seed=args.seed)
-    env = floor.make(kind)
-    env_id = env.spec.id
-    rows, cols = env.unwrapped.grid_rows, env.unwrapped.grid_cols
+    env_id = floor.env_id(kind)
+    grid = floor.grid()
+    rows, cols = grid.rows, grid.cols
     try:
         check_training_memory(rows, cols, config.episodes)
     except ValueError as error:
@@ -221,33 +213,29 @@ def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
     finished = False
     try:
         progress = _progress_bar(config.episodes, env_id, disable=args.quiet)
-        start = time.perf_counter()
         try:
-            result = train(env, config, on_episode=lambda _: progress.update())
+            outcome = train_run(
+                folder, floor, kind, config, gif=args.gif, on_episode=lambda _: progress.update()
+            )
         finally:
             progress.close()
-        seconds = time.perf_counter() - start
-        evaluation = evaluate(env, result.q)
-        env.close()
-
-        episode = _greedy_episode(floor, kind, result.q, seed=args.seed) if args.gif else None
-        _write_run(folder, env, result, evaluation, seconds, started, episode)
         finished = True
     finally:
         folder.close(remove_if_empty=not finished)
+    result, evaluation, seconds = outcome.result, outcome.evaluation, outcome.seconds
     run_dir = folder.path
     if not args.quiet:
         print(
             f"trained {config.episodes} episodes on {env_id} ({rows}x{cols}) in {seconds:.2f} s; "
             f"{int(result.reached_target.sum())} reached the target, "
             f"{int(result.truncated.sum())} were truncated at "
-            f"{env.spec.max_episode_steps} steps"
+            f"{outcome.max_episode_steps} steps"
         )
         print(evaluation.table())
-        hint = _advice(evaluation, config, env.spec.max_episode_steps)
+        hint = _advice(evaluation, config, outcome.max_episode_steps)
         if hint:
             print(hint)
-        written = [CURVE_FILE, *([GIF_FILE] if episode is not None else []), SUMMARY_FILE]
+        written = [CURVE_FILE, *([GIF_FILE] if outcome.gif_written else []), SUMMARY_FILE]
         print(f"wrote {run_dir / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     if args.render:
         _watch(floor, kind, result.q, seed=args.seed)
@@ -296,60 +284,6 @@ def _progress_bar(episodes: int, env_id: str, *, disable: bool) -> Any:
     )
 
 
-def _write_run(
-    folder: RunFolder,
-    env: gym.Env,
-    result: TrainingResult,
-    evaluation: Evaluation,
-    seconds: float,
-    started: time.struct_time,
-    episode: EpisodeRecording | None,
-) -> None:
-    """The table, the learning curve, the GIF and the summary, each written atomically."""
-    from warehouse_phys.plots import learning_curve_figure, save_figure
-
-    metadata = table_metadata(env, result.config)
-    folder.write(TABLE_FILE, lambda path: save_q_table(path, result.q, metadata))
-    grid = f"{metadata['grid_rows']}x{metadata['grid_cols']}"
-    title = f"{metadata['env_id']} {grid}, seed {result.config.seed}"
-    figure = learning_curve_figure(result, title)
-    folder.write(CURVE_FILE, lambda path: save_figure(figure, path))
-    last = slice(-min(100, len(result.steps)), None)
-    summary = {
-        "env_id": metadata["env_id"],
-        "grid": [metadata["grid_rows"], metadata["grid_cols"]],
-        "layout": metadata["layout"],
-        "layout_name": metadata["layout_name"],
-        "max_episode_steps": env.spec.max_episode_steps,
-        "config": asdict(result.config),
-        "package_version": warehouse_phys.__version__,
-        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", started),
-        "training_seconds": round(seconds, 4),
-        "training": {
-            "episodes": len(result.steps),
-            "reached_target": int(result.reached_target.sum()),
-            "truncated": int(result.truncated.sum()),
-            "total_steps": int(result.steps.sum()),
-            "mean_steps_last_100": float(result.steps[last].mean()),
-            "success_rate_last_100": float(result.reached_target[last].mean()),
-        },
-        "evaluation": evaluation.to_json(),
-        "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
-    }
-    if episode is not None:
-        animation = episode.animation()
-        folder.write(GIF_FILE, animation.save)
-        summary["files"]["episode_gif"] = GIF_FILE
-        summary["gif_episode"] = {
-            "seed": result.config.seed,
-            "target": list(episode.target),
-            "steps": episode.steps,
-            "reached_target": episode.terminated,
-        }
-    text = json.dumps(summary, indent=2) + "\n"
-    folder.write(SUMMARY_FILE, lambda path: atomic_write_text(path, text))
-
-
 # --------------------------------------------------------------- evaluation
 def _evaluate_saved(args: argparse.Namespace) -> int:
     try:
@@ -393,16 +327,6 @@ def _kind_of(env_id: str) -> str:
     if spec is None or not str(spec.entry_point).startswith("warehouse_phys."):
         raise UsageError(f"--eval: the table was trained on {env_id!r}; choose --env grid or phys")
     return "phys" if str(spec.entry_point).endswith("WarehousePhysicsEnv") else "grid"
-
-
-def _greedy_episode(floor: Floor, kind: str, q: Any, *, seed: int) -> EpisodeRecording:
-    """The greedy policy's episode with ``seed``, recorded for the GIF: smooth motion
-    in the physics-backed environment, one jump per step in the grid twin."""
-    env = floor.make(kind, render_mode="rgb_array")
-    try:
-        return record_episode(env, partial(greedy_action, q), seed=seed, max_steps=GIF_MAX_STEPS)
-    finally:
-        env.close()
 
 
 def _watch(floor: Floor, kind: str, q: Any, *, seed: int) -> None:

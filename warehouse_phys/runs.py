@@ -1,0 +1,236 @@
+"""One training run, from its configuration to a complete run folder.
+
+What ``python -m warehouse_phys.train`` and ``python -m warehouse_phys.sweep``
+share: the floor to train on (:class:`Floor`), the files a run writes and
+:func:`train_run`, which trains, evaluates and writes them into a
+:class:`~warehouse_phys.runfolder.RunFolder`.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from functools import partial
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import warehouse_phys
+from warehouse_phys.atomic import atomic_write_text
+from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.layouts import PRESETS, preset_ids, resolve_layout, suggested_time_limit
+from warehouse_phys.qlearning import (
+    Evaluation,
+    QLearningConfig,
+    TrainingResult,
+    evaluate,
+    greedy_action,
+    save_q_table,
+    table_metadata,
+    train,
+)
+from warehouse_phys.recording import EpisodeRecording, record_episode
+from warehouse_phys.runfolder import RunFolder
+
+#: The environment kinds and the ids they stand for.
+ENVIRONMENTS = {"phys": warehouse_phys.PHYSICS_ENV_ID, "grid": warehouse_phys.GRID_ENV_ID}
+
+TABLE_FILE, CURVE_FILE, SUMMARY_FILE = "qtable.npz", "learning_curve.png", "summary.json"
+GIF_FILE = "episode.gif"
+#: Every file a run may write into its folder.
+RUN_FILES = (TABLE_FILE, CURVE_FILE, GIF_FILE, SUMMARY_FILE)
+#: The greedy episode in the GIF stops after this many steps, should the policy wander [steps].
+GIF_MAX_STEPS = 60
+#: The learning curve in ``summary.json``: at most this many points [1].
+CURVE_POINTS = 200
+
+
+@dataclass(frozen=True)
+class Floor:
+    """The floor to use: the empty one, a preset, or a layout's rows; and its time limit."""
+
+    rows: int | None = None
+    cols: int | None = None
+    preset: str | None = None
+    layout: tuple[str, ...] | None = None
+    #: A short name for run folders: the preset's name or the layout file's stem.
+    label: str | None = None
+    #: The episodes' time limit; ``None`` for the floor's suggested one.
+    max_steps: int | None = None
+
+    def grid(self) -> WarehouseGrid:
+        """The world model of this floor."""
+        if self.preset is not None:
+            return resolve_layout(self.preset)
+        if self.layout is not None:
+            return WarehouseGrid.from_layout(self.layout)
+        return WarehouseGrid(self.rows or 4, self.cols or 5)
+
+    def time_limit(self) -> int:
+        """``max_steps``, or the preset's registered limit, or
+        :func:`~warehouse_phys.layouts.suggested_time_limit` of the floor."""
+        if self.max_steps is not None:
+            return self.max_steps
+        if self.preset is not None:
+            return PRESETS[self.preset].max_episode_steps
+        return suggested_time_limit(self.grid())
+
+    def env_id(self, kind: str) -> str:
+        """The id of the ``kind`` ("grid" or "phys") environment on this floor."""
+        if self.preset is not None:
+            grid_id, physics_id = preset_ids(self.preset)
+            return physics_id if kind == "phys" else grid_id
+        return ENVIRONMENTS[kind]
+
+    def make(self, kind: str, render_mode: str | None = None) -> gym.Env:
+        """The ``kind`` ("grid" or "phys") environment on this floor, through ``gym.make``.
+
+        Ids are given in ``warehouse_phys:`` form, which imports the package in
+        any process (a Ray worker, a spawned subprocess) before looking them up.
+        """
+        limit = self.time_limit()
+        env_id = f"warehouse_phys:{self.env_id(kind)}"
+        if self.preset is not None:
+            return gym.make(env_id, render_mode=render_mode, max_episode_steps=limit)
+        if self.layout is not None:
+            return gym.make(
+                env_id,
+                layout=list(self.layout),
+                render_mode=render_mode,
+                max_episode_steps=limit,
+            )
+        return gym.make(
+            env_id,
+            grid_rows=self.rows or 4,
+            grid_cols=self.cols or 5,
+            render_mode=render_mode,
+            max_episode_steps=limit,
+        )
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """What a run did: the table and records, the evaluation and the summary it wrote."""
+
+    env_id: str
+    max_episode_steps: int
+    result: TrainingResult
+    evaluation: Evaluation
+    seconds: float
+    summary: dict[str, Any]
+    gif_written: bool
+
+
+def train_run(
+    folder: RunFolder,
+    floor: Floor,
+    kind: str,
+    config: QLearningConfig,
+    *,
+    gif: bool = True,
+    on_episode: Callable[[int], None] | None = None,
+) -> RunOutcome:
+    """Train on ``floor`` in the ``kind`` environment, evaluate, and write the run into
+    ``folder`` (opened by the caller): table, learning curve, the greedy episode's
+    GIF (unless ``gif`` is false) and ``summary.json``, each atomically.
+
+    Raises:
+        warehouse_phys.runfolder.RunWriteError: naming the file that could not be written.
+    """
+    started = time.localtime()
+    env = floor.make(kind)
+    start = time.perf_counter()
+    result = train(env, config, on_episode=on_episode)
+    seconds = time.perf_counter() - start
+    evaluation = evaluate(env, result.q)
+    env.close()
+    episode = greedy_episode(floor, kind, result.q, seed=config.seed) if gif else None
+    summary = _write_run(folder, env, result, evaluation, seconds, started, episode)
+    return RunOutcome(
+        env.spec.id, env.spec.max_episode_steps, result, evaluation, seconds, summary,
+        episode is not None,
+    )  # fmt: skip
+
+
+def greedy_episode(floor: Floor, kind: str, q: Any, *, seed: int) -> EpisodeRecording:
+    """The greedy policy's episode with ``seed``, recorded for the GIF: smooth motion
+    in the physics-backed environment, one jump per step in the grid twin."""
+    env = floor.make(kind, render_mode="rgb_array")
+    try:
+        return record_episode(env, partial(greedy_action, q), seed=seed, max_steps=GIF_MAX_STEPS)
+    finally:
+        env.close()
+
+
+def learning_curve_points(steps: np.ndarray, window: int = 100) -> dict[str, list[float]]:
+    """The rolling mean of steps per episode over ``window`` episodes, at most
+    :data:`CURVE_POINTS` points: ``{"episodes": [...], "mean_steps": [...]}``."""
+    steps = np.asarray(steps, dtype=np.float64)
+    window = max(1, min(window, len(steps)))
+    sums = np.cumsum(np.concatenate([[0.0], steps]))
+    ends = np.arange(window, len(steps) + 1)
+    means = (sums[ends] - sums[ends - window]) / window
+    picked = np.unique(np.linspace(0, len(means) - 1, min(CURVE_POINTS, len(means))).astype(int))
+    return {
+        "episodes": [int(ends[i]) for i in picked],
+        "mean_steps": [round(float(means[i]), 4) for i in picked],
+    }
+
+
+def _write_run(
+    folder: RunFolder,
+    env: gym.Env,
+    result: TrainingResult,
+    evaluation: Evaluation,
+    seconds: float,
+    started: time.struct_time,
+    episode: EpisodeRecording | None,
+) -> dict[str, Any]:
+    """The table, the learning curve, the GIF and the summary, each written atomically."""
+    from warehouse_phys.plots import learning_curve_figure, save_figure
+
+    metadata = table_metadata(env, result.config)
+    folder.write(TABLE_FILE, lambda path: save_q_table(path, result.q, metadata))
+    grid = f"{metadata['grid_rows']}x{metadata['grid_cols']}"
+    title = f"{metadata['env_id']} {grid}, seed {result.config.seed}"
+    figure = learning_curve_figure(result, title)
+    folder.write(CURVE_FILE, lambda path: save_figure(figure, path))
+    last = slice(-min(100, len(result.steps)), None)
+    summary: dict[str, Any] = {
+        "env_id": metadata["env_id"],
+        "grid": [metadata["grid_rows"], metadata["grid_cols"]],
+        "layout": metadata["layout"],
+        "layout_name": metadata["layout_name"],
+        "max_episode_steps": env.spec.max_episode_steps,
+        "config": asdict(result.config),
+        "package_version": warehouse_phys.__version__,
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", started),
+        "training_seconds": round(seconds, 4),
+        "training": {
+            "episodes": len(result.steps),
+            "reached_target": int(result.reached_target.sum()),
+            "truncated": int(result.truncated.sum()),
+            "total_steps": int(result.steps.sum()),
+            "mean_steps_last_100": float(result.steps[last].mean()),
+            "success_rate_last_100": float(result.reached_target[last].mean()),
+        },
+        "learning_curve": learning_curve_points(result.steps),
+        "evaluation": evaluation.to_json(),
+        "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
+    }
+    if episode is not None:
+        animation = episode.animation()
+        folder.write(GIF_FILE, animation.save)
+        summary["files"]["episode_gif"] = GIF_FILE
+        summary["gif_episode"] = {
+            "seed": result.config.seed,
+            "target": list(episode.target),
+            "steps": episode.steps,
+            "reached_target": episode.terminated,
+        }
+    text = json.dumps(summary, indent=2) + "\n"
+    folder.write(SUMMARY_FILE, lambda path: atomic_write_text(path, text))
+    return summary
