@@ -84,7 +84,7 @@ def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = ""
 
 
 def floor_from_args(args: argparse.Namespace) -> Floor:
-    """The :class:`Floor` that ``--rows``, ``--cols`` and ``--layout`` ask for.
+    """The :class:`Floor` that ``--rows``, ``--cols``, ``--layout`` and ``--max-steps`` ask for.
 
     Raises:
         UsageError: for ``--layout`` with ``--rows`` or ``--cols``, an unknown
@@ -95,12 +95,22 @@ def floor_from_args(args: argparse.Namespace) -> Floor:
         return Floor(rows=args.rows, cols=args.cols, max_steps=max_steps)
     if args.rows is not None or args.cols is not None:
         raise UsageError("--rows and --cols come from the layout; leave them out with --layout")
-    if args.layout in PRESETS:
-        return Floor(preset=args.layout, label=args.layout, max_steps=max_steps)
-    path = Path(args.layout)
+    return floor_from_layout(args.layout, max_steps=max_steps)
+
+
+def floor_from_layout(name_or_file: str, *, max_steps: int | None = None) -> Floor:
+    """The :class:`Floor` of a layout preset's name or of a layout text file.
+
+    Raises:
+        UsageError: for an unknown preset, or a file that cannot be read or is
+            not a valid layout.
+    """
+    if name_or_file in PRESETS:
+        return Floor(preset=name_or_file, label=name_or_file, max_steps=max_steps)
+    path = Path(name_or_file)
     if not path.is_file():
         raise UsageError(
-            f"--layout {args.layout!r} is neither a preset ({', '.join(PRESETS)}) nor a file"
+            f"--layout {name_or_file!r} is neither a preset ({', '.join(PRESETS)}) nor a file"
         )
     try:
         lines = [line.rstrip() for line in path.read_text(encoding="utf-8").splitlines()]

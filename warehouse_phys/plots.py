@@ -254,6 +254,54 @@ def policy_figure(q: np.ndarray, grid: WarehouseGrid, target: tuple[int, int]) -
     return figure
 
 
+def sweep_figure(
+    configurations: Mapping[str, Sequence[Mapping[str, object]]], title: str = ""
+) -> Figure:
+    """A sweep at a glance: for each configuration (its seeds' results), the fraction of
+    targets reached by a shortest path, seed by seed, and the learning curves' mean
+    with the band from the lowest to the highest seed.
+
+    Args:
+        configurations: Label -> one mapping per finished seed, each with
+            ``"fraction_optimal"`` and ``"learning_curve"`` (``{"episodes": [...],
+            "mean_steps": [...]}``, as in a run's ``summary.json``).
+        title: The figure's title.
+    """
+    labels = list(configurations)
+    figure = _figure((12, 2.4 + 0.4 * max(len(labels), 3)))
+    optimal_axes, curve_axes = figure.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1.4]})
+    colours = [f"C{i % 10}" for i in range(len(labels))]
+    for row, (label, colour) in enumerate(zip(labels, colours, strict=True)):
+        runs = configurations[label]
+        fractions = [float(run["fraction_optimal"]) for run in runs]
+        if fractions:
+            optimal_axes.scatter(fractions, [row] * len(fractions), color=colour, alpha=0.7, s=18)
+            optimal_axes.plot([np.mean(fractions)] * 2, [row - 0.3, row + 0.3], color=colour)
+        curves = [run["learning_curve"] for run in runs]
+        lengths = {len(curve["episodes"]) for curve in curves}
+        if len(lengths) == 1 and lengths != {0}:
+            episodes = np.asarray(curves[0]["episodes"])
+            steps = np.array([curve["mean_steps"] for curve in curves], dtype=float)
+            curve_axes.plot(episodes, steps.mean(axis=0), color=colour, label=label)
+            curve_axes.fill_between(
+                episodes, steps.min(axis=0), steps.max(axis=0), color=colour, alpha=0.2
+            )
+    optimal_axes.set_yticks(range(len(labels)), labels, fontsize=8)
+    optimal_axes.set_ylim(len(labels) - 0.5, -0.5)
+    optimal_axes.set_xlim(-0.05, 1.05)
+    optimal_axes.set_xlabel("share of targets reached by a shortest path\n(dot: a seed, bar: mean)")
+    optimal_axes.grid(axis="x", alpha=0.3)
+    curve_axes.set_xlabel("episode")
+    curve_axes.set_ylabel("steps per episode\n(rolling mean)")
+    curve_axes.set_yscale("log")
+    curve_axes.grid(alpha=0.3)
+    if labels:
+        curve_axes.legend(fontsize=7, loc="upper right")
+    if title:
+        figure.suptitle(title)
+    return figure
+
+
 def _draw_floor(ax: Axes, grid: WarehouseGrid, target: tuple[int, int]) -> None:
     """Cell borders, shelves, the start and the target on ``ax``, row 0 at the top."""
     ax.set_xlim(-0.5, grid.cols - 0.5)

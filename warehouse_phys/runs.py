@@ -166,10 +166,11 @@ def greedy_episode(floor: Floor, kind: str, q: Any, *, seed: int) -> EpisodeReco
 
 
 def learning_curve_points(steps: np.ndarray, window: int = 100) -> dict[str, list[float]]:
-    """The rolling mean of steps per episode over ``window`` episodes, at most
-    :data:`CURVE_POINTS` points: ``{"episodes": [...], "mean_steps": [...]}``."""
+    """The rolling mean of steps per episode over ``window`` episodes (fewer in a short
+    run: a twentieth of it), at most :data:`CURVE_POINTS` points:
+    ``{"episodes": [...], "mean_steps": [...], "window": w}``."""
     steps = np.asarray(steps, dtype=np.float64)
-    window = max(1, min(window, len(steps)))
+    window = max(1, min(window, len(steps) // 20))
     sums = np.cumsum(np.concatenate([[0.0], steps]))
     ends = np.arange(window, len(steps) + 1)
     means = (sums[ends] - sums[ends - window]) / window
@@ -177,6 +178,7 @@ def learning_curve_points(steps: np.ndarray, window: int = 100) -> dict[str, lis
     return {
         "episodes": [int(ends[i]) for i in picked],
         "mean_steps": [round(float(means[i]), 4) for i in picked],
+        "window": window,
     }
 
 
