@@ -1,6 +1,8 @@
 """Render the pictures used by README.md into docs/: ``python docs/make_readme_images.py``."""
 
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -11,7 +13,7 @@ import numpy as np
 import pygame
 
 import warehouse_phys
-from warehouse_phys import Action
+from warehouse_phys import Action, sweep
 from warehouse_phys.plots import learning_curve_figure, save_figure
 from warehouse_phys.qlearning import QLearningConfig, greedy_action, train
 from warehouse_phys.recording import record_episode
@@ -74,6 +76,19 @@ def main() -> None:
         episode.animation().save(HERE / name)
         print(f"wrote {HERE / name}")
         env.close()
+
+    # What `python -m warehouse_phys.sweep` draws (its trials run here, in this process,
+    # through the same run_trial that Ray's workers call).
+    argv = ["--env", "grid", "phys", "--layout", "default", "maze", "--seeds", "3"]
+    argv += ["--episodes", "300", "--alpha", "0.5", "0.9"]
+    trials = sweep.trials_from_args(sweep.build_parser().parse_args(argv))
+    with tempfile.TemporaryDirectory() as folder:
+        rows = [
+            sweep._row(t, "done", sweep.run_trial(t.to_job(Path(folder), False))) for t in trials
+        ]
+        sweep.write_results(Path(folder), trials, rows)
+        shutil.copy(Path(folder) / sweep.SUMMARY_PNG, HERE / "sweep_summary.png")
+    print(f"wrote {HERE / 'sweep_summary.png'}")
 
 
 if __name__ == "__main__":
