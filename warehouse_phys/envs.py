@@ -73,10 +73,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         self._moves: list[list[tuple[Cell, ...]]] | None = None
         self._last_action: Action | None = None
         # Built in every mode so that a bad cell_px fails here; it loads no pygame until drawing.
-        self._renderer = WarehouseRenderer(
-            self.grid_rows,
-            self.grid_cols,
-            shelves=self.grid.shelves,
+        self._renderer = WarehouseRenderer.for_grid(
+            self.grid,
             cell_px=cell_px,
             render_fps=self.metadata["render_fps"],
             title=f"warehouse_phys: {type(self).__name__}",

@@ -211,6 +211,20 @@ class WarehouseRenderer:
         self._window: pygame.Surface | None = None
         self._clock: Any = None
 
+    @classmethod
+    def for_grid(
+        cls, grid: Any, *, cell_px: int, render_fps: float, title: str = "warehouse_phys"
+    ) -> WarehouseRenderer:
+        """The renderer of a :class:`~warehouse_phys.grid.WarehouseGrid`'s floor and shelves."""
+        return cls(
+            grid.rows,
+            grid.cols,
+            shelves=grid.shelves,
+            cell_px=cell_px,
+            render_fps=render_fps,
+            title=title,
+        )
+
     def check_frame_size(self) -> None:
         """Refuse, with a message naming the size, frames too large to draw.
 

@@ -164,12 +164,8 @@ class WarehouseGridVectorEnv(VectorEnv):
         self._ended = np.empty(0, dtype=np.int64)  # the floors whose episode ended last step
         self._last_actions = np.full(self.num_envs, -1, dtype=np.int64)  # -1: none yet
 
-        self._renderer = WarehouseRenderer(
-            self.grid_rows,
-            self.grid_cols,
-            shelves=self.grid.shelves,
-            cell_px=cell_px,
-            render_fps=self.metadata["render_fps"],
+        self._renderer = WarehouseRenderer.for_grid(
+            self.grid, cell_px=cell_px, render_fps=self.metadata["render_fps"]
         )
         if render_mode == "rgb_array":
             self._renderer.check_frame_size()
