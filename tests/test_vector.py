@@ -326,3 +326,11 @@ def test_returned_arrays_are_never_reused():
     assert np.array_equal(first, kept[0])
     assert np.array_equal(infos["optimal_steps"], kept[1])
     assert not np.shares_memory(second[0], envs.step(np.zeros(4, dtype=int))[0])
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int32, np.uint32, np.uint64, np.int64])
+def test_actions_of_any_integer_dtype_move_alike(dtype):
+    envs = gym.make_vec(GRID_ID, num_envs=3)
+    envs.reset(seed=0)
+    obs, *_ = envs.step(np.array([2, 1, 0], dtype=dtype))
+    assert obs[:, :2].tolist() == [[0, 1], [1, 0], [0, 0]]

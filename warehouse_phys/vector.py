@@ -317,7 +317,9 @@ class WarehouseGridVectorEnv(VectorEnv):
                 f"sub-environment {bad[0]} got {actions[bad[0]]}"
                 + (f" (and {len(bad) - 1} more)" if len(bad) > 1 else "")
             )
-        return actions
+        # int64 indexes the move table whatever the caller's integers (uint64 + int64
+        # would make floats); no copy when they are int64 already.
+        return actions.astype(np.int64, copy=False)
 
     def _checked_reset_mask(self, options: dict[str, Any] | None) -> np.ndarray | None:
         if options is None:
