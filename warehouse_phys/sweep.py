@@ -12,9 +12,9 @@ and ``summary.png`` (each configuration's spread over its seeds).
     python -m warehouse_phys.sweep --layout default maze --seeds 0-7 --alpha 0.5 0.9
     python -m warehouse_phys.sweep --address auto ...   # on a running Ray cluster
 
-Running the same command again resumes: a trial whose folder holds a complete
-run of its configuration is not trained again, and the tables cover the whole
-grid. A failed trial is recorded with its error while the others go on; the
+Running the same command again with the same ``--out`` resumes: a trial whose
+folder holds a complete run of its configuration is not trained again, and the
+tables cover the whole grid. A failed trial is recorded with its error while the others go on; the
 command then exits with status 1 and says how many failed. Ray Tune comes with
 the ``ray`` extra (``pip install "warehouse_phys[ray]"``); without it the
 command exits with status 2 and says so.
