@@ -237,7 +237,7 @@ def test_body_trajectories_are_bit_identical_across_processes(run_python, env_id
     assert run_python(script).split() == [str(here.shape[0]), digest(here)]
 
 
-def test_reset_rebuilds_the_world_so_an_episode_replays_bit_for_bit():
+def test_reset_rebuilds_the_robot_so_an_episode_replays_bit_for_bit():
     bumps = [Action.UP, Action.LEFT, Action.UP, Action.RIGHT, Action.DOWN, Action.LEFT]
     replay = [Action.LEFT, Action.RIGHT, Action.RIGHT, Action.UP, Action.DOWN, Action.DOWN]
 
@@ -250,10 +250,13 @@ def test_reset_rebuilds_the_world_so_an_episode_replays_bit_for_bit():
 
     used = WarehousePhysicsEnv(record_path=True)
     used.reset(seed=1)
-    first_world = used.world
+    first = (used.world.robot, used.world.robot_shape, used.world.control, used.world.joint)
     run(used, bumps)  # leaves contacts and warm-started impulses behind
     used.reset(seed=2)
-    assert used.world is not first_world
+    assert used.world.space.current_time_step == 0.0
+    now = (used.world.robot, used.world.robot_shape, used.world.control, used.world.joint)
+    assert all(new is not old for new, old in zip(now, first, strict=True))
+    assert set(used.world.space.bodies) == {used.world.robot, used.world.control}
     fresh = WarehousePhysicsEnv(record_path=True)
     fresh.reset(seed=2)
     assert run(used, replay).tobytes() == run(fresh, replay).tobytes()
@@ -409,3 +412,42 @@ def test_human_playback_resamples_a_longer_move_to_real_time(monkeypatch):
     env.step(Action.RIGHT)
     assert len(shown) == 30
     env.close()
+
+
+RESTART_SETTINGS = [  # each accepted by check_controller
+    {},
+    {"max_force": 9000.0, "robot_mass": 12.0},
+    {"robot_radius": 0.2, "max_speed": 9.0, "max_force": 6000.0},
+    {"robot_radius": 0.35, "max_speed": 5.0, "max_force": 5000.0},
+    {"dt": 1 / 120},
+]
+
+
+@settings(max_examples=60)
+@given(
+    setting=st.sampled_from(RESTART_SETTINGS),
+    layout=st.sampled_from([None, "maze"]),
+    history=st.lists(st.sampled_from(list(Action)), min_size=1, max_size=40),
+    episodes=st.integers(1, 3),
+    seed=st.integers(0, 1000),
+    replay=st.lists(st.sampled_from(list(Action)), min_size=1, max_size=25),
+)
+def test_an_episode_after_any_history_replays_bit_for_bit_in_a_new_world(
+    setting, layout, history, episodes, seed, replay
+):
+    """Reset keeps the walls and swaps in a new robot: nothing of the past may show."""
+    kwargs = {"layout": layout, "record_path": True, **setting}
+    used = WarehousePhysicsEnv(**kwargs)
+    used.reset(seed=seed)
+    for _ in range(episodes):  # bumps, contacts and warm starts, then a reset
+        for action in history:
+            used.step(action)
+        used.reset()
+    target = tuple(int(v) for v in used._target)
+    fresh = WarehousePhysicsEnv(**kwargs)
+    fresh.reset(options={"target": target})
+    for action in replay:
+        a, b = used.step(action), fresh.step(action)
+        assert np.array_equal(a[0], b[0])
+        assert a[4] == b[4]
+        assert used.last_move_path.tobytes() == fresh.last_move_path.tobytes()

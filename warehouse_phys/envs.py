@@ -21,7 +21,7 @@ from gymnasium.error import ResetNeeded
 
 from warehouse_phys.grid import Action, Cell, WarehouseGrid, check_size, move_table
 from warehouse_phys.layouts import resolve_layout
-from warehouse_phys.physics import PhysicsConfig, PhysicsWorld, check_controller
+from warehouse_phys.physics import CAN_RESTART, PhysicsConfig, PhysicsWorld, check_controller
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
 
 #: The actions in value order, so that ``_ACTIONS[i]`` is ``Action(i)`` without an enum lookup.
@@ -411,8 +411,10 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
     As in :class:`WarehouseGridEnv`, with the body at rest on the start cell's
     centre. The target is drawn from ``self.np_random`` exactly as there, so the
     same seed places it on the same cell in both environments. Every reset
-    builds a fresh pymunk space, so no contact or solver state carries over and
-    a seed replays bit for bit. ``reset(options=...)`` takes the same
+    puts a freshly built robot, control body and joint into the floor's space
+    (see :meth:`~warehouse_phys.physics.PhysicsWorld.restart`), so no contact
+    or solver state carries over: an episode is bit for bit what a new world
+    gives, and a seed replays bit for bit. ``reset(options=...)`` takes the same
     ``"target"`` and ``"start"`` options.
 
     ## Rewards
@@ -559,9 +561,12 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
         return result.cell
 
     def _start_episode(self) -> None:
-        self.world = PhysicsWorld(
-            self.grid, self.physics, self._robot, record_path=self.record_path
-        )
+        if self.world is not None and CAN_RESTART:
+            self.world.restart(self._robot)  # the same walls, a new robot: as a new world
+        else:
+            self.world = PhysicsWorld(
+                self.grid, self.physics, self._robot, record_path=self.record_path
+            )
         self._snap_error = 0.0
 
     def _show_move(self) -> None:

@@ -225,9 +225,9 @@ class MoveResult(NamedTuple):
 class PhysicsWorld:
     """A pymunk space with the floor's walls, the robot body and its controller.
 
-    The world is built fresh for every episode (see :meth:`__init__`), so no
-    contact cache or solver state carries over from one episode to the next
-    and a seed replays bit for bit.
+    Each episode starts on a freshly built robot, control body and joint (a new
+    world, or :meth:`restart`), so no contact cache or solver state carries over
+    from one episode to the next and a seed replays bit for bit.
 
     Args:
         grid: the floor to build walls around.
@@ -268,6 +268,32 @@ class PhysicsWorld:
         space.add(*_wall_shapes(space.static_body, grid.rows, grid.cols, config.cell_size))
         space.add(*_shelf_shapes(space.static_body, grid.shelves, config.cell_size))
 
+        self.space = space
+        self._add_robot(start)
+
+    def restart(self, start: tuple[int, int]) -> None:
+        """Begin a new episode: a freshly built robot, control body and joint on ``start``.
+
+        The walls and shelves stay; everything that carries state from move to
+        move is new. The old robot's shapes leave the space with their cached
+        contacts, the new joint has no accumulated impulse, and the space's
+        last time step is cleared, so that its first step applies no warm start:
+        exactly what a new world's first step does. The tests check that an
+        episode after many others replays bit for bit in a new world.
+        """
+        if not self.grid.is_free(start):
+            raise ValueError(
+                f"start {tuple(start)} is off the {self.grid.rows}x{self.grid.cols} floor "
+                "or on a shelf"
+            )
+        self.space.remove(self.joint, self.control, self.robot_shape, self.robot)
+        _clear_time_step(self.space)
+        self._path.clear()
+        self._add_robot(start)
+
+    def _add_robot(self, start: tuple[int, int]) -> None:
+        """Add the robot at rest on ``start``, and its controller, to the space."""
+        config, space = self.config, self.space
         robot = pymunk.Body()
         shape = pymunk.Circle(robot, config.robot_radius)
         shape.mass = config.robot_mass  # pymunk derives the moment of a uniform disc
@@ -287,7 +313,6 @@ class PhysicsWorld:
         joint.collide_bodies = False
         space.add(control, joint)
 
-        self.space = space
         self.robot = robot
         self.robot_shape = shape
         self.control = control
@@ -441,12 +466,15 @@ def _chipmunk() -> Any:
         "cpBodySetPosition",
         "cpBodySetVelocity",
         "cpBodySetAngularVelocity",
+        "cpSpaceSetCurrentTimeStep",
     )
     return lib if all(hasattr(lib, name) for name in needed) else None
 
 
 _LIB = _chipmunk()
 _CP_SPACE_STEP = None if _LIB is None else _LIB.cpSpaceStep
+#: Whether :meth:`PhysicsWorld.restart` can begin an episode exactly as a new world does.
+CAN_RESTART = _LIB is not None
 
 if _LIB is not None:
 
@@ -458,6 +486,11 @@ if _LIB is not None:
     def _set_position(body: pymunk.Body, position: tuple[float, float]) -> None:
         """Place the body at ``position`` [m] (as ``body.position = position``)."""
         _LIB.cpBodySetPosition(body._body, position)
+
+    def _clear_time_step(space: pymunk.Space) -> None:
+        """Forget the space's last time step: its next step then applies no cached
+        impulses, as the first step of a new space does."""
+        _LIB.cpSpaceSetCurrentTimeStep(space._space, 0.0)
 
     def _place_at_rest(body: pymunk.Body, position: tuple[float, float]) -> None:
         """Place the body at ``position`` [m] with no linear or angular velocity."""
@@ -474,6 +507,9 @@ else:  # pragma: no cover - the same through pymunk's properties
 
     def _set_position(body: pymunk.Body, position: tuple[float, float]) -> None:
         body.position = position
+
+    def _clear_time_step(space: pymunk.Space) -> None:
+        raise RuntimeError("this pymunk cannot clear a space's time step: build a new world")
 
     def _place_at_rest(body: pymunk.Body, position: tuple[float, float]) -> None:
         body.position = position
