@@ -322,6 +322,13 @@ def physics_figures(rounds: int) -> list[Figure]:
             PhysicsWorld(grid, config, (0, 0))
         return n // 4
 
+    restarted = PhysicsWorld(grid, config, (0, 0))
+
+    def per_restart() -> float:
+        for _ in range(n // 4):
+            restarted.restart((0, 0))
+        return n // 4
+
     reference = "physics step (Space.step)"
     steps = interleaved(
         [
@@ -334,7 +341,10 @@ def physics_figures(rounds: int) -> list[Figure]:
     return steps + interleaved(  # no reference for these: what a move and a reset cost
         [
             Candidate("one move (world.move)", "us", per_move, higher_is_better=False, per=1e6),
-            Candidate("one reset (new world)", "us", per_reset, higher_is_better=False, per=1e6),
+            Candidate("a new world", "us", per_reset, higher_is_better=False, per=1e6),
+            Candidate(
+                "one reset (world.restart)", "us", per_restart, higher_is_better=False, per=1e6
+            ),
         ],
         rounds,
     )

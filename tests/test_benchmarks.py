@@ -43,7 +43,7 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     for n in (1, 64):
         assert re.search(rf"env-steps/s\s+{ratio}", row(f"native vector env, {n} envs"))
     assert re.search(rf" us\s+{ratio}", row("physics step (move loop)"))
-    for name in ("one move", "one reset"):
+    for name in ("one move", "a new world", "one reset (world.restart)"):
         assert " us" in row(name)
     for size, target in ((10, 1), (100, 1), (256, 10)):
         verdict = rf"<= {target} s: (met|MISSED)$"
@@ -53,7 +53,7 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     assert results["machine"]["cpu_count"] >= 1
     assert results["timer"] == "time.process_time"
     figures = [f for section in results["sections"].values() for f in section]
-    assert len(figures) == 6 + 3 + 3 + 4 + 4 + 4
+    assert len(figures) == 6 + 3 + 3 + 4 + 5 + 4
     for figure in figures:
         assert len(figure["rounds"]) == results["rounds"] == 2
         assert figure["low"] <= figure["value"] <= figure["high"]
