@@ -293,10 +293,6 @@ class WarehouseGrid:
                     for r in range(self.rows)]  # fmt: skip
         return [list(row) for row in self._distances_from(target)]
 
-    def free_mask(self) -> list[list[bool]]:
-        """Whether each cell is floor (``True``) or a shelf, as ``rows`` lists of ``cols``."""
-        return [list(row) for row in self._free]
-
     def _distances_from(self, origin: tuple[int, int]) -> list[list[int]]:
         """Moves from ``origin`` to every cell (the same both ways); -1 where it cannot go."""
         rows, cols, free = self.rows, self.cols, self._free
