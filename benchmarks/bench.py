@@ -18,6 +18,8 @@ Groups and references:
   plain Q-learning loop;
 - vector: the native ``gym.make_vec("warehouse-robot-v0")`` against Gymnasium's
   ``SyncVectorEnv`` of the same environment, at several ``num_envs``;
+- physics vector: the native ``gym.make_vec("warehouse-robot-phys-v0")`` against
+  the single physics environment, in robot-actions per second, at several ``num_envs``;
 - physics: a physics step (the move loop's, against ``Space.step``), a move, a reset;
 - world model: building a big floor and suggesting time limits (no reference).
 
@@ -290,6 +292,31 @@ def vector_figures(sizes: list[int], env_steps: int, rounds: int) -> list[Figure
     return figures
 
 
+def physics_vector_figures(sizes: list[int], robot_actions: int, rounds: int) -> list[Figure]:
+    """The native physics vector env against the single physics env (``gym.make``), size by
+    size: robot-actions per CPU second, each size in its own rounds."""
+    single_actions = np.random.default_rng(3).integers(4, size=robot_actions // 4).tolist()
+    figures = []
+    for n in sizes:
+        native = gym.make_vec(PHYS_ID, num_envs=n)
+        reference = f"single physics env (gym.make), beside {n}"
+        figures += interleaved(
+            [
+                Candidate(reference, "robot-actions/s", stepper(gym.make(PHYS_ID), single_actions)),
+                Candidate(
+                    f"native physics vector env, {n} envs",
+                    "robot-actions/s",
+                    vector_stepper(native, robot_actions),
+                    target_ratio=3.5 if n == 256 else None,
+                    target_value=2e5 if n == 256 else None,
+                ),
+            ],
+            rounds,
+            reference=reference,
+        )
+    return figures
+
+
 # ------------------------------------------------------------------ physics
 def physics_figures(rounds: int) -> list[Figure]:
     config = PhysicsConfig()
@@ -449,6 +476,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         "episodes": 20 if args.quick else 1000,
         "vector_sizes": [1, 64] if args.quick else [1, 64, 256, 1024, 16384],
         "vector_env_steps": 5_000 if args.quick else 400_000,
+        "physics_vector_sizes": [1, 16] if args.quick else [1, 16, 64, 256, 1024],
+        "physics_vector_robot_actions": 400 if args.quick else 20_000,
     }
     sections = {
         f"stepping ({budget['actions']:,} random actions a round, resets included)": (
@@ -462,6 +491,9 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         ),
         "vector (random actions, autoreset included)": vector_figures(
             budget["vector_sizes"], budget["vector_env_steps"], rounds
+        ),
+        "physics vector (random actions, autoreset included)": physics_vector_figures(
+            budget["physics_vector_sizes"], budget["physics_vector_robot_actions"], rounds
         ),
         "physics (default settings)": physics_figures(rounds),
         "world model": world_model_figures(rounds),

@@ -42,7 +42,11 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     assert re.search(rf" s\s+{ratio}", row("trainer on warehouse-robot-phys-v0"))
     for n in (1, 64):
         assert re.search(rf"env-steps/s\s+{ratio}", row(f"native vector env, {n} envs"))
-    assert re.search(rf" us\s+{ratio}", row("physics step (move loop)"))
+    for n in (1, 16):
+        native = row(f"native physics vector env, {n} envs")
+        assert re.search(rf"robot-actions/s\s+{ratio}", native)
+        assert row(f"single physics env (gym.make), beside {n}").endswith("reference")
+    assert re.search(r" us\s+" + ratio, row("physics step (move loop)"))
     for name in ("one move", "a new world", "one reset (world.restart)"):
         assert " us" in row(name)
     for size, target in ((10, 1), (100, 1), (256, 10)):
@@ -53,7 +57,7 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     assert results["machine"]["cpu_count"] >= 1
     assert results["timer"] == "time.process_time"
     figures = [f for section in results["sections"].values() for f in section]
-    assert len(figures) == 6 + 3 + 3 + 4 + 5 + 4
+    assert len(figures) == 6 + 3 + 3 + 4 + 4 + 5 + 4
     for figure in figures:
         assert len(figure["rounds"]) == results["rounds"] == 2
         assert figure["low"] <= figure["value"] <= figure["high"]

@@ -255,8 +255,12 @@ def test_reset_rebuilds_the_robot_so_an_episode_replays_bit_for_bit():
     used.reset(seed=2)
     assert used.world.space.current_time_step == 0.0
     now = (used.world.robot, used.world.robot_shape, used.world.control, used.world.joint)
-    assert all(new is not old for new, old in zip(now, first, strict=True))
+    assert now[3] is not first[3]  # a new joint: no accumulated impulse
+    assert used.world.joint.impulse == 0.0
     assert set(used.world.space.bodies) == {used.world.robot, used.world.control}
+    robot = used.world.robot
+    assert (robot.velocity, robot.angle, robot.angular_velocity) == ((0, 0), 0.0, 0.0)
+    assert robot.position == used.world.control.position == (0.5, 0.5)
     fresh = WarehousePhysicsEnv(record_path=True)
     fresh.reset(seed=2)
     assert run(used, replay).tobytes() == run(fresh, replay).tobytes()

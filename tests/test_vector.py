@@ -69,8 +69,8 @@ def test_make_vec_returns_the_native_vector_env(name):
     assert infos["_optimal_steps"].all()
 
 
-def test_the_physics_ids_keep_gymnasiums_vectorisation():
-    envs = gym.make_vec(warehouse_phys.PHYSICS_ENV_ID, num_envs=2)
+def test_gymnasiums_own_vectorisation_stays_available():
+    envs = gym.make_vec(GRID_ID, num_envs=2, vectorization_mode="sync")
     assert isinstance(envs, SyncVectorEnv)
 
 

@@ -49,19 +49,28 @@ DEFAULT_MAX_EPISODE_STEPS = 200
 _GRID_ENTRY_POINT = "warehouse_phys.envs:WarehouseGridEnv"
 _PHYSICS_ENTRY_POINT = "warehouse_phys.envs:WarehousePhysicsEnv"
 
-#: ``gym.make_vec`` builds the grid twin's ids natively (see :mod:`warehouse_phys.vector`).
+#: ``gym.make_vec`` builds every id natively (see :mod:`warehouse_phys.vector`).
 _GRID_VECTOR_ENTRY_POINT = "warehouse_phys.vector:WarehouseGridVectorEnv"
+_PHYSICS_VECTOR_ENTRY_POINT = "warehouse_phys.vector:WarehousePhysicsVectorEnv"
 
 _REGISTRATIONS = [
     (GRID_ENV_ID, _GRID_ENTRY_POINT, _GRID_VECTOR_ENTRY_POINT, {}, DEFAULT_MAX_EPISODE_STEPS),
-    (PHYSICS_ENV_ID, _PHYSICS_ENTRY_POINT, None, {}, DEFAULT_MAX_EPISODE_STEPS),
+    (
+        PHYSICS_ENV_ID,
+        _PHYSICS_ENTRY_POINT,
+        _PHYSICS_VECTOR_ENTRY_POINT,
+        {},
+        DEFAULT_MAX_EPISODE_STEPS,
+    ),
 ]
 for _preset in PRESETS.values():
     _grid_id, _physics_id = preset_ids(_preset.name)
     _kwargs = {"layout": _preset.name}
     _limit = _preset.max_episode_steps
     _REGISTRATIONS.append((_grid_id, _GRID_ENTRY_POINT, _GRID_VECTOR_ENTRY_POINT, _kwargs, _limit))
-    _REGISTRATIONS.append((_physics_id, _PHYSICS_ENTRY_POINT, None, _kwargs, _limit))
+    _REGISTRATIONS.append(
+        (_physics_id, _PHYSICS_ENTRY_POINT, _PHYSICS_VECTOR_ENTRY_POINT, _kwargs, _limit)
+    )
 
 for _env_id, _entry_point, _vector_entry_point, _kwargs, _max_steps in _REGISTRATIONS:
     if _env_id not in registry:  # importing twice (e.g. a reload) must not warn

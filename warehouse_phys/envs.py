@@ -508,13 +508,7 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
             settle_time=settle_time,
         )
         check_controller(self.physics)
-        if record_path is None:
-            record_path = render_mode in ("human", "rgb_array")
-        elif not isinstance(record_path, bool):
-            raise TypeError(f"record_path must be a bool or None, got {record_path!r}")
-        if render_mode == "human" and not record_path:
-            raise ValueError("render_mode='human' plays the recorded path: record_path must be on")
-        self.record_path = record_path
+        self.record_path = checked_record_path(record_path, render_mode)
         #: The pymunk world of the current episode, rebuilt by every reset.
         self.world: PhysicsWorld | None = None
         self._snap_error = 0.0
@@ -595,6 +589,18 @@ def status_line(last_action: Action | None, delivered: bool) -> str:
     if last_action is None:
         return ""
     return f"Action: {last_action.name}{'   Delivered!' if delivered else ''}"
+
+
+def checked_record_path(record_path: object, render_mode: str | None) -> bool:
+    """Whether a physics-backed environment records paths: ``record_path``, or by default
+    when it renders frames (``"human"`` or ``"rgb_array"``)."""
+    if record_path is None:
+        return render_mode in ("human", "rgb_array")
+    if not isinstance(record_path, bool):
+        raise TypeError(f"record_path must be a bool or None, got {record_path!r}")
+    if render_mode == "human" and not record_path:
+        raise ValueError("render_mode='human' plays the recorded path: record_path must be on")
+    return record_path
 
 
 def make_grid(

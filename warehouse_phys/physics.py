@@ -222,6 +222,98 @@ class MoveResult(NamedTuple):
     snap_error: float
 
 
+class RobotBodies(NamedTuple):
+    """What one robot is made of in a space: its body and disc, and its controller."""
+
+    robot: pymunk.Body
+    shape: pymunk.Circle
+    #: The kinematic body on the point the robot is driven to.
+    control: pymunk.Body
+    #: The pivot joint that pulls the robot to ``control`` with capped force and speed.
+    joint: pymunk.PivotJoint
+
+
+def new_space(config: PhysicsConfig) -> pymunk.Space:
+    """An empty space with the floor's drag, the contact slop for ``config``'s cells and
+    one solver thread (the solver order, hence every bit, is then reproducible)."""
+    space = pymunk.Space()
+    space.threads = 1
+    space.damping = math.exp(-config.floor_damping)  # fraction of velocity kept after 1 s
+    # pymunk's default overlap allowance (0.1) suits pixel units; in metres it would
+    # let the robot sink 10 cm into a wall.
+    space.collision_slop = COLLISION_SLOP * config.cell_size
+    return space
+
+
+def add_floor(
+    space: pymunk.Space,
+    grid: WarehouseGrid,
+    cell_size: float,
+    origin: tuple[float, float] = (0.0, 0.0),
+) -> None:
+    """Add the walls around ``grid`` and its shelves to ``space``, with the floor's
+    top-left corner at ``origin`` ``(x, y)`` [m]."""
+    shapes = _wall_shapes(space.static_body, grid.rows, grid.cols, cell_size, origin)
+    shapes += _shelf_shapes(space.static_body, grid.shelves, cell_size, origin)
+    space.add(*shapes)
+
+
+def add_robot(
+    space: pymunk.Space, config: PhysicsConfig, position: tuple[float, float]
+) -> RobotBodies:
+    """Add a robot at rest on ``position`` ``(x, y)`` [m], and its controller aimed
+    there, to ``space``."""
+    robot = pymunk.Body()
+    shape = pymunk.Circle(robot, config.robot_radius)
+    shape.mass = config.robot_mass  # pymunk derives the moment of a uniform disc
+    shape.friction = WALL_FRICTION
+    shape.elasticity = 0.0
+    robot.position = position
+    space.add(robot, shape)
+
+    # The controller: a kinematic body on the aim point, joined to the robot by
+    # a pivot joint whose force and correction speed are capped.
+    control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+    control.position = robot.position
+    joint = _new_joint(control, robot, config)
+    space.add(control, joint)
+    return RobotBodies(robot, shape, control, joint)
+
+
+def renew_robot(
+    space: pymunk.Space, config: PhysicsConfig, bodies: RobotBodies, position: tuple[float, float]
+) -> RobotBodies:
+    """Make ``bodies`` a robot as :func:`add_robot` builds it, at rest on ``position`` [m].
+
+    Everything that carries state from one physics step to the next is reset
+    or replaced: the disc leaves the space and comes back, dropping its cached
+    contacts (and their accumulated impulses); the body gets a new body's
+    state (position, no velocity, angle, spin, force or torque); the control
+    body moves onto ``position``; a new joint, with no accumulated impulse,
+    replaces the old one. The bodies keep their place in the space's list of
+    bodies. The tests check that the robot then moves bit for bit as a newly
+    built one. Returns the robot with its new joint.
+    """
+    space.remove(bodies.joint, bodies.shape)
+    _reset_body(bodies.robot, position)
+    _set_position(bodies.control, position)
+    joint = _new_joint(bodies.control, bodies.robot, config)
+    space.add(bodies.shape, joint)
+    return bodies._replace(joint=joint)
+
+
+def _new_joint(
+    control: pymunk.Body, robot: pymunk.Body, config: PhysicsConfig
+) -> pymunk.PivotJoint:
+    """The controller's pivot joint: pulls ``robot`` to ``control``, force and speed capped."""
+    joint = pymunk.PivotJoint(control, robot, (0, 0), (0, 0))
+    joint.max_force = config.max_force
+    joint.max_bias = config.max_speed
+    joint.error_bias = math.exp(-config.gain)
+    joint.collide_bodies = False
+    return joint
+
+
 class PhysicsWorld:
     """A pymunk space with the floor's walls, the robot body and its controller.
 
@@ -259,64 +351,36 @@ class PhysicsWorld:
         self._settle_steps = config.settle_steps
         self._path: list[tuple[float, float]] = []
 
-        space = pymunk.Space()
-        space.threads = 1  # one thread: the solver order, hence every bit, is reproducible
-        space.damping = math.exp(-config.floor_damping)  # fraction of velocity kept after 1 s
-        # pymunk's default overlap allowance (0.1) suits pixel units; in metres it would
-        # let the robot sink 10 cm into a wall.
-        space.collision_slop = COLLISION_SLOP * config.cell_size
-        space.add(*_wall_shapes(space.static_body, grid.rows, grid.cols, config.cell_size))
-        space.add(*_shelf_shapes(space.static_body, grid.shelves, config.cell_size))
-
-        self.space = space
+        self.space = new_space(config)
+        add_floor(self.space, grid, config.cell_size)
         self._add_robot(start)
 
     def restart(self, start: tuple[int, int]) -> None:
-        """Begin a new episode: a freshly built robot, control body and joint on ``start``.
+        """Begin a new episode: the robot as newly built, at rest on ``start``.
 
         The walls and shelves stay; everything that carries state from move to
-        move is new. The old robot's shapes leave the space with their cached
-        contacts, the new joint has no accumulated impulse, and the space's
-        last time step is cleared, so that its first step applies no warm start:
-        exactly what a new world's first step does. The tests check that an
-        episode after many others replays bit for bit in a new world.
+        move is reset or new (see :func:`renew_robot`): the disc's cached
+        contacts are dropped, the body has a new body's state, the new joint has
+        no accumulated impulse, and the space's last time step is cleared, so
+        that its first step applies no warm start: exactly what a new world's
+        first step does. The tests check that an episode after many others
+        replays bit for bit in a new world.
         """
         if not self.grid.is_free(start):
             raise ValueError(
                 f"start {tuple(start)} is off the {self.grid.rows}x{self.grid.cols} floor "
                 "or on a shelf"
             )
-        self.space.remove(self.joint, self.control, self.robot_shape, self.robot)
+        bodies = RobotBodies(self.robot, self.robot_shape, self.control, self.joint)
+        self.joint = renew_robot(self.space, self.config, bodies, self.centre(start)).joint
         _clear_time_step(self.space)
         self._path.clear()
-        self._add_robot(start)
+        self.cell = Cell(int(start[0]), int(start[1]))
 
     def _add_robot(self, start: tuple[int, int]) -> None:
         """Add the robot at rest on ``start``, and its controller, to the space."""
-        config, space = self.config, self.space
-        robot = pymunk.Body()
-        shape = pymunk.Circle(robot, config.robot_radius)
-        shape.mass = config.robot_mass  # pymunk derives the moment of a uniform disc
-        shape.friction = WALL_FRICTION
-        shape.elasticity = 0.0
-        robot.position = self.centre(start)
-        space.add(robot, shape)
-
-        # The controller: a kinematic body on the aim point, joined to the robot by
-        # a pivot joint whose force and correction speed are capped.
-        control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-        control.position = robot.position
-        joint = pymunk.PivotJoint(control, robot, (0, 0), (0, 0))
-        joint.max_force = config.max_force
-        joint.max_bias = config.max_speed
-        joint.error_bias = math.exp(-config.gain)
-        joint.collide_bodies = False
-        space.add(control, joint)
-
-        self.robot = robot
-        self.robot_shape = shape
-        self.control = control
-        self.joint = joint
+        bodies = add_robot(self.space, self.config, self.centre(start))
+        self.robot, self.robot_shape, self.control, self.joint = bodies
         self.cell = Cell(int(start[0]), int(start[1]))
 
     def centre(self, cell: tuple[int, int]) -> tuple[float, float]:
@@ -395,10 +459,7 @@ class PhysicsWorld:
         object's finalizer (which chipmunk aborts on while a space is locked).
         Tests replace this method to look inside a move.
         """
-        handle = getattr(self.space, "_space", None)
-        if _CP_SPACE_STEP is None or handle is None:  # pragma: no cover - pymunk internals moved
-            return pymunk.Space.step, self.space
-        return _CP_SPACE_STEP, handle
+        return space_stepping(self.space)
 
     @property
     def last_path(self) -> np.ndarray:
@@ -417,6 +478,19 @@ class PhysicsWorld:
             return np.empty((0, 2))
         xy = np.array(self._path, dtype=np.float64) / self._cell_size - 0.5
         return xy[:, ::-1].copy()
+
+
+def space_stepping(space: pymunk.Space) -> tuple[Callable[[Any, float], None], Any]:
+    """How to advance ``space`` by ``dt``: ``step(target, dt)`` and its ``target``.
+
+    chipmunk's ``cpSpaceStep`` on the space's C handle when pymunk exposes it
+    (see ``_chipmunk``), else ``pymunk.Space.step`` on the space itself. The
+    caller holds the handle only while it holds the space.
+    """
+    handle = getattr(space, "_space", None)
+    if _CP_SPACE_STEP is None or handle is None:  # pragma: no cover - pymunk internals moved
+        return pymunk.Space.step, space
+    return _CP_SPACE_STEP, handle
 
 
 def speed_profile(
@@ -467,6 +541,9 @@ def _chipmunk() -> Any:
         "cpBodySetVelocity",
         "cpBodySetAngularVelocity",
         "cpSpaceSetCurrentTimeStep",
+        "cpBodySetAngle",
+        "cpBodySetForce",
+        "cpBodySetTorque",
     )
     return lib if all(hasattr(lib, name) for name in needed) else None
 
@@ -499,6 +576,17 @@ if _LIB is not None:
         _LIB.cpBodySetVelocity(handle, (0.0, 0.0))
         _LIB.cpBodySetAngularVelocity(handle, 0.0)
 
+    def _reset_body(body: pymunk.Body, position: tuple[float, float]) -> None:
+        """Give the body a new body's state on ``position`` [m]: at rest, angle 0,
+        no force or torque."""
+        handle = body._body
+        _LIB.cpBodySetPosition(handle, position)
+        _LIB.cpBodySetVelocity(handle, (0.0, 0.0))
+        _LIB.cpBodySetAngle(handle, 0.0)
+        _LIB.cpBodySetAngularVelocity(handle, 0.0)
+        _LIB.cpBodySetForce(handle, (0.0, 0.0))
+        _LIB.cpBodySetTorque(handle, 0.0)
+
 else:  # pragma: no cover - the same through pymunk's properties
 
     def _get_position(body: pymunk.Body) -> tuple[float, float]:
@@ -516,6 +604,12 @@ else:  # pragma: no cover - the same through pymunk's properties
         body.velocity = (0.0, 0.0)
         body.angular_velocity = 0.0
 
+    def _reset_body(body: pymunk.Body, position: tuple[float, float]) -> None:
+        _place_at_rest(body, position)
+        body.angle = 0.0
+        body.force = (0.0, 0.0)
+        body.torque = 0.0
+
 
 def _box(
     static_body: pymunk.Body, left: float, top: float, right: float, bottom: float
@@ -528,7 +622,10 @@ def _box(
 
 
 def _shelf_shapes(
-    static_body: pymunk.Body, shelves: frozenset[Cell], cell_size: float
+    static_body: pymunk.Body,
+    shelves: frozenset[Cell],
+    cell_size: float,
+    origin: tuple[float, float],
 ) -> list[pymunk.Poly]:
     """One static box per horizontal run of shelf cells, each filling its cells exactly.
 
@@ -542,15 +639,21 @@ def _shelf_shapes(
             runs[-1][2] = col
         else:
             runs.append([row, col, col])
-    size = cell_size
+    size, (x0, y0) = cell_size, origin
     return [
-        _box(static_body, first * size, row * size, (last + 1) * size, (row + 1) * size)
+        _box(
+            static_body,
+            x0 + first * size,
+            y0 + row * size,
+            x0 + (last + 1) * size,
+            y0 + (row + 1) * size,
+        )
         for row, first, last in runs
     ]
 
 
 def _wall_shapes(
-    static_body: pymunk.Body, rows: int, cols: int, cell_size: float
+    static_body: pymunk.Body, rows: int, cols: int, cell_size: float, origin: tuple[float, float]
 ) -> list[pymunk.Poly]:
     """Four thick boxes just outside the ``rows`` x ``cols`` floor, overlapping at the corners."""
     thick = WALL_THICKNESS * cell_size
@@ -561,7 +664,11 @@ def _wall_shapes(
         (-thick, 0.0, 0.0, height),  # left
         (width, 0.0, width + thick, height),  # right
     )
-    return [_box(static_body, *box) for box in boxes]
+    x0, y0 = origin
+    return [
+        _box(static_body, x0 + left, y0 + top, x0 + right, y0 + bottom)
+        for left, top, right, bottom in boxes
+    ]
 
 
 def penetration(grid: WarehouseGrid, radius: float, path: np.ndarray) -> np.ndarray:
