@@ -299,7 +299,7 @@ def physics_vector_figures(sizes: list[int], robot_actions: int, rounds: int) ->
     figures = []
     for n in sizes:
         native = gym.make_vec(PHYS_ID, num_envs=n)
-        reference = f"single physics env (gym.make), beside {n}"
+        reference = f"gym.make physics env, beside {n} envs"
         figures += interleaved(
             [
                 Candidate(reference, "robot-actions/s", stepper(gym.make(PHYS_ID), single_actions)),

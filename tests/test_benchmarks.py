@@ -45,7 +45,7 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     for n in (1, 16):
         native = row(f"native physics vector env, {n} envs")
         assert re.search(rf"robot-actions/s\s+{ratio}", native)
-        assert row(f"single physics env (gym.make), beside {n}").endswith("reference")
+        assert row(f"gym.make physics env, beside {n} envs").endswith("reference")
     assert re.search(r" us\s+" + ratio, row("physics step (move loop)"))
     for name in ("one move", "a new world", "one reset (world.restart)"):
         assert " us" in row(name)

@@ -411,9 +411,9 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
     As in :class:`WarehouseGridEnv`, with the body at rest on the start cell's
     centre. The target is drawn from ``self.np_random`` exactly as there, so the
     same seed places it on the same cell in both environments. Every reset
-    puts a freshly built robot, control body and joint into the floor's space
-    (see :meth:`~warehouse_phys.physics.PhysicsWorld.restart`), so no contact
-    or solver state carries over: an episode is bit for bit what a new world
+    makes the robot as newly built, in the same floor's space (see
+    :meth:`~warehouse_phys.physics.PhysicsWorld.restart`), so no contact or
+    solver state carries over: an episode is bit for bit what a new world
     gives, and a seed replays bit for bit. ``reset(options=...)`` takes the same
     ``"target"`` and ``"start"`` options.
 

@@ -317,9 +317,9 @@ def _new_joint(
 class PhysicsWorld:
     """A pymunk space with the floor's walls, the robot body and its controller.
 
-    Each episode starts on a freshly built robot, control body and joint (a new
-    world, or :meth:`restart`), so no contact cache or solver state carries over
-    from one episode to the next and a seed replays bit for bit.
+    Each episode starts on a robot as newly built (a new world, or
+    :meth:`restart`), so no contact cache or solver state carries over from one
+    episode to the next and a seed replays bit for bit.
 
     Args:
         grid: the floor to build walls around.

@@ -404,9 +404,9 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     Every robot at rest on the start cell; packages drawn as in
     :class:`WarehouseGridVectorEnv` (the same seed gives the same packages in
     both). A sub-environment that restarts (after its episode ended, or through
-    ``reset_mask``) gets a freshly built robot, control body and joint: no
-    contact or solver state is left over, and its episode replays bit for bit
-    whatever came before it.
+    ``reset_mask``) gets its robot renewed (see
+    :func:`~warehouse_phys.physics.renew_robot`): no contact or solver state is
+    left over, and its episode replays bit for bit whatever came before it.
 
     ## Rewards
     1.0 to a sub-environment on the step its robot reaches its package, else 0.0.
