@@ -1,0 +1,119 @@
+"""The fleet's traffic rule, checked exhaustively for two and three robots on small floors."""
+
+import itertools
+
+import pytest
+
+from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.traffic import (
+    CORNER_FOLLOW_DISTANCE,
+    WAIT,
+    corner_follows_are_safe,
+    resolve_moves,
+)
+
+FLOORS = {
+    "2x3": WarehouseGrid(2, 3),
+    "3x3 with a shelf": WarehouseGrid.from_layout(["...", ".#.", "..."]),
+}
+
+
+def greatest_consistent_movers(grid, cells, actions, corner_follows):
+    """The rule by brute force: after the lowest-numbered-goes rule, the largest set of
+    movers in which every mover's cell is free, or left by a mover of the set straight
+    ahead (or round a corner, if allowed), and no two swap."""
+    n = len(cells)
+    wanted = [
+        cells[i] if a == WAIT else tuple(grid.move(cells[i], a)) for i, a in enumerate(actions)
+    ]
+    candidates = []
+    for i in range(n):
+        if wanted[i] != cells[i] and all(wanted[k] != wanted[i] for k in candidates):
+            candidates.append(i)
+
+    def consistent(movers):
+        for i in movers:
+            if wanted[i] in cells:
+                j = cells.index(wanted[i])
+                if j not in movers or wanted[j] == cells[i]:
+                    return False
+                d_i = (wanted[i][0] - cells[i][0], wanted[i][1] - cells[i][1])
+                d_j = (wanted[j][0] - cells[j][0], wanted[j][1] - cells[j][1])
+                if d_i != d_j and not corner_follows:
+                    return False
+        return True
+
+    best = set()
+    for size in range(len(candidates) + 1):
+        for movers in itertools.combinations(candidates, size):
+            if consistent(set(movers)):
+                best |= set(movers)
+    assert consistent(best)  # the union of consistent sets is consistent: one answer
+    return [wanted[i] if i in best else cells[i] for i in range(n)], wanted
+
+
+@pytest.mark.parametrize("corner_follows", [True, False])
+@pytest.mark.parametrize("n_robots", [2, 3])
+@pytest.mark.parametrize("name", list(FLOORS))
+def test_the_rule_on_every_placement_and_joint_action(name, n_robots, corner_follows):
+    grid = FLOORS[name]
+    free = sorted(grid.reachable)
+    checked = 0
+    for cells in itertools.permutations(free, n_robots):
+        cells = [tuple(c) for c in cells]
+        for actions in itertools.product(range(5), repeat=n_robots):
+            ends, refused = resolve_moves(grid, cells, actions, corner_follows=corner_follows)
+            ends = [tuple(e) for e in ends]
+            expected, wanted = greatest_consistent_movers(grid, cells, actions, corner_follows)
+            assert ends == expected, (cells, actions)
+            assert len(set(ends)) == n_robots  # never two robots on a cell
+            for i in range(n_robots):
+                assert ends[i] in (cells[i], wanted[i])  # a granted move or a wait
+                assert refused[i] == (wanted[i] != cells[i] and ends[i] == cells[i])
+                for j in range(n_robots):
+                    assert not (i != j and ends[i] == cells[j] and ends[j] == cells[i])  # no swap
+            checked += 1
+    assert checked > 100
+
+
+def test_chains_and_rotations_move_together_and_corners_need_small_robots():
+    grid = WarehouseGrid(3, 4)
+    # A straight chain of three following each other to the right.
+    ends, refused = resolve_moves(grid, [(0, 0), (0, 1), (0, 2)], [2, 2, 2])
+    assert [tuple(e) for e in ends] == [(0, 1), (0, 2), (0, 3)]
+    assert refused == [False] * 3
+    # Blocked at the head: the whole chain waits.
+    ends, refused = resolve_moves(grid, [(0, 1), (0, 2), (0, 3)], [2, 2, 2])
+    assert [tuple(e) for e in ends] == [(0, 1), (0, 2), (0, 3)]
+    assert refused == [True, True, False]  # the head bumps the wall: the floor refused it
+    # A rotation of four in a 2 x 2 block: every follow is a corner.
+    block, turn = [(0, 0), (0, 1), (1, 1), (1, 0)], [2, 1, 0, 3]
+    ends, _ = resolve_moves(grid, block, turn, corner_follows=True)
+    assert [tuple(e) for e in ends] == [(0, 1), (1, 1), (1, 0), (0, 0)]
+    ends, refused = resolve_moves(grid, block, turn, corner_follows=False)
+    assert [tuple(e) for e in ends] == block
+    assert all(refused)
+    # Two robots swapping both wait; a parked robot is an obstacle.
+    assert resolve_moves(grid, [(0, 0), (0, 1)], [2, 0])[1] == [True, True]
+    ends, refused = resolve_moves(grid, [(0, 0), (0, 1)], [2, 2], parked=[False, True])
+    assert [tuple(e) for e in ends] == [(0, 0), (0, 1)]
+    assert refused == [True, False]
+
+
+def test_corner_follows_are_safe_below_the_geometric_threshold():
+    assert abs(CORNER_FOLLOW_DISTANCE - 0.70711) < 1e-5
+    assert corner_follows_are_safe(0.6)  # the default robot
+    assert not corner_follows_are_safe(0.68)
+    assert not corner_follows_are_safe(0.71)
+
+
+@pytest.mark.parametrize(
+    ("cells", "actions", "message"),
+    [
+        ([(0, 0), (0, 0)], [WAIT, WAIT], "two robots share a cell"),
+        ([(0, 0), (0, 1)], [5, WAIT], "robot 0's action must be 0..4"),
+    ],
+)
+def test_bad_input_is_refused(cells, actions, message):
+    with pytest.raises(ValueError, match=message):
+        resolve_moves(WarehouseGrid(2, 3), cells, actions)
