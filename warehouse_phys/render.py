@@ -156,6 +156,19 @@ def fit_text(text: pygame.Surface, width: int) -> pygame.Surface:
     return pg.transform.smoothscale(text, (width, height))
 
 
+#: The colours of a fleet's robots and their packages, robot by robot (RGB).
+FLEET_COLOURS: tuple[tuple[int, int, int], ...] = (
+    (230, 25, 75),
+    (60, 180, 75),
+    (0, 130, 200),
+    (245, 130, 48),
+    (145, 30, 180),
+    (70, 200, 200),
+    (240, 50, 230),
+    (150, 150, 40),
+)
+
+
 class WarehouseRenderer:
     """Draws warehouse frames and, in ``human`` mode, owns the window.
 
@@ -305,6 +318,30 @@ class WarehouseRenderer:
         """One frame as a fresh ``(height, width, 3)`` uint8 array; needs no display."""
         pg = self._ensure_pygame()
         surface = self.draw(robot, target, status)
+        return np.ascontiguousarray(pg.surfarray.pixels3d(surface).transpose(1, 0, 2))
+
+    def fleet_rgb_array(
+        self,
+        robots: Sequence[Sequence[float]],
+        packages: Sequence[tuple[int, int]],
+        status: str = "",
+    ) -> np.ndarray:
+        """A frame of a fleet: robot ``i`` at ``robots[i]`` (cell units, as in :meth:`draw`)
+        on a disc of colour ``FLEET_COLOURS[i]``, its package framed in the same colour."""
+        pg = self._ensure_pygame()
+        surface = self.draw(robots[0], packages[0], status)
+        px = self.cell_px
+        surface.blit(self._floor, (0, 0))  # draw() drew robot 0 alone: start again
+        border = max(2, px // 16)
+        for i, (row, col) in enumerate(packages):
+            colour = FLEET_COLOURS[i % len(FLEET_COLOURS)]
+            surface.blit(self._package, (col * px, row * px))
+            pg.draw.rect(surface, colour, (col * px, row * px, px, px), width=border)
+        for i, (row, col) in enumerate(robots):
+            colour = FLEET_COLOURS[i % len(FLEET_COLOURS)]
+            centre = (round((col + 0.5) * px), round((row + 0.5) * px))
+            pg.draw.circle(surface, colour, centre, px * 9 // 20)
+            surface.blit(self._robot, (round(col * px), round(row * px)))
         return np.ascontiguousarray(pg.surfarray.pixels3d(surface).transpose(1, 0, 2))
 
     # ------------------------------------------------------------------- window
