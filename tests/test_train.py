@@ -544,3 +544,54 @@ def test_render_without_a_display_exits_1_before_training(tmp_path):
     assert "xvfb-run" in result.stderr
     assert len(result.stderr.splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------- a fleet
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("env", "episodes", "floor"), [("grid", 400, (4, 5)), ("phys", 20, (3, 3))]
+)
+def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(
+    tmp_path, env, episodes, floor
+):
+    result = run_cli("--robots", "3", "--env", env, "--episodes", str(episodes), "--out", "fleet",
+                     "--rows", str(floor[0]), "--cols", str(floor[1]), cwd=tmp_path)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "trained 3 robots sharing one table" in result.stdout
+    assert "shortest paths, waiting when blocked:" in result.stdout
+    folder = tmp_path / "fleet"
+    assert sorted(p.name for p in folder.iterdir()) == [
+        "episode.gif", "learning_curve.png", "qtable.npz", "summary.json",
+    ]  # fmt: skip
+    q, metadata = load_q_table(folder / "qtable.npz")
+    assert q.shape == (*floor, *floor, 5)
+    assert metadata["robots"] == 3
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["robots"] == 3
+    for policy in ("learned", "shortest_path"):
+        evaluation = summary["evaluation"][policy]
+        assert evaluation["episodes"] == 20
+        assert evaluation["delay"] == evaluation["robot_steps"] - evaluation["shortest_steps"]
+    frames, _ = gif_frames(folder / "episode.gif")
+    assert frames[0].shape == (floor[0] * 64 + 24, floor[1] * 64, 3)
+    if env == "grid":
+        assert summary["evaluation"]["learned"]["delivered"] > 30  # of 60
+        again = run_cli("--eval", "fleet/qtable.npz", cwd=tmp_path)
+        assert again.returncode == 0, again.stderr
+        assert "(3 robots, warehouse-robot-v0, 4x5, 400 episodes" in again.stdout
+        learned = summary["evaluation"]["learned"]
+        assert f"{learned['delivered']}/60 packages delivered" in again.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--robots", "0"], "expected a number of robots from 1 to 64, got 0"),
+        (["--robots", "3", "--render"], "--render shows one robot in a window"),
+        (["--robots", "7", "--layout", "depot"], "7 robots need 7 package cells"),
+    ],
+)
+def test_a_fleet_that_cannot_be_trained_exits_2_and_writes_nothing(tmp_path, capsys, args, message):
+    assert train_cli.main([*args, "--out", str(tmp_path / "out")]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

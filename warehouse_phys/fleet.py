@@ -22,10 +22,14 @@ from warehouse_phys.grid import Cell
 from warehouse_phys.layouts import suggested_time_limit
 from warehouse_phys.physics import PhysicsConfig, check_controller
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer
-from warehouse_phys.traffic import FLEET_ACTIONS, WAIT, corner_follows_are_safe, resolve_moves
+from warehouse_phys.traffic import (
+    FLEET_ACTIONS,
+    MAX_ROBOTS,
+    WAIT,
+    corner_follows_are_safe,
+    resolve_moves,
+)
 
-#: Most robots in one fleet.
-MAX_ROBOTS = 64
 _OBSERVATIONS = ("local", "global")
 
 
@@ -280,6 +284,21 @@ class WarehouseFleetEnv(ParallelEnv):
             return self._ansi()
         positions = self.world.positions().tolist() if self.world is not None else self._cells
         return self._renderer.fleet_rgb_array(positions, self._packages)
+
+    def move_frames(self) -> list[np.ndarray]:
+        """The frames of the last step's motion in the physics world, one per physics step
+        (the last just before the snap), as ``(H, W, 3)`` uint8 arrays; needs no display.
+
+        Raises:
+            ValueError: in the grid twin, which has no motion between cells.
+        """
+        if self.world is None:
+            raise ValueError("only the physics world (physics=True) has motion frames")
+        paths = self.world.last_paths  # (K, steps, 2)
+        return [
+            self._renderer.fleet_rgb_array(paths[:, step].tolist(), self._packages)
+            for step in range(paths.shape[1])
+        ]
 
     def close(self) -> None:
         """Release the renderer's pygame resources."""

@@ -40,6 +40,7 @@ from warehouse_phys.atomic import atomic_write
 from warehouse_phys.grid import MAX_SIDE, Cell, WarehouseGrid
 from warehouse_phys.layouts import PRESETS, preset_ids, preset_name
 from warehouse_phys.npzfile import ArchiveError, NpzReader, to_array
+from warehouse_phys.traffic import MAX_ROBOTS
 
 #: Largest metadata string read from a table file [bytes].
 METADATA_MAX_BYTES = 2**20
@@ -75,6 +76,14 @@ _METADATA_FIELDS: dict[str, type | tuple[type, ...]] = {
     "layout": (list, type(None)),
     "layout_name": (str, type(None)),
 }
+#: Optional: the robots of a fleet that shares the table (absent: one robot). A fleet's
+#: table has a fifth action, WAIT (see warehouse_phys.traffic).
+_FLEET_FIELD = "robots"
+
+
+def table_actions(metadata: dict[str, Any]) -> int:
+    """Actions in the last axis of the table ``metadata`` describes: 4, or 5 for a fleet's."""
+    return 5 if metadata.get(_FLEET_FIELD, 1) > 1 else 4
 
 
 #: Memory a training run may take for its Q-table and its per-episode records [bytes].
@@ -471,7 +480,13 @@ def save_q_table(path: str | os.PathLike[str], q: np.ndarray, metadata: dict[str
     """
     q = np.asarray(q)
     _check_metadata(metadata, where="metadata")
-    _check_table(q, metadata["grid_rows"], metadata["grid_cols"], where="table")
+    _check_table(
+        q,
+        metadata["grid_rows"],
+        metadata["grid_cols"],
+        where="table",
+        actions=table_actions(metadata),
+    )
     text = json.dumps(metadata, sort_keys=True)
     return atomic_write(
         path,
@@ -518,7 +533,7 @@ def load_q_table(
                     raise QTableError(
                         f"{path}: the table is for a {grid[0]}x{grid[1]} grid, not {rows}x{cols}"
                     )
-                q = _read_table(archive, *grid, where=str(path))
+                q = _read_table(archive, *grid, where=str(path), actions=table_actions(metadata))
     except ArchiveError as error:
         raise QTableError(f"{path}: {error}") from None
     except OSError as error:
@@ -541,10 +556,12 @@ def _read_metadata(archive: NpzReader, *, where: str) -> dict[str, Any]:
     return metadata
 
 
-def _read_table(archive: NpzReader, rows: int, cols: int, *, where: str) -> np.ndarray:
+def _read_table(
+    archive: NpzReader, rows: int, cols: int, *, where: str, actions: int = 4
+) -> np.ndarray:
     """The table of an archive for a ``rows`` x ``cols`` grid: real floats, read within
     the size such a table has, as float64, finite."""
-    expected = (rows, cols, rows, cols, 4)
+    expected = (rows, cols, rows, cols, actions)
     widest = np.dtype(np.longdouble).itemsize
     header, data = archive.read("q", max_data_bytes=math.prod(expected) * widest)
     if header.dtype.kind != "f":
@@ -571,6 +588,11 @@ def _check_metadata(metadata: Any, *, where: str) -> None:
         value = metadata[name]
         if isinstance(value, bool) or not isinstance(value, kind):
             raise error(f"{where}: metadata {name!r} has the wrong type: {_short(value)}")
+    robots = metadata.get(_FLEET_FIELD, 1)
+    if isinstance(robots, bool) or not isinstance(robots, int) or not 1 <= robots <= MAX_ROBOTS:
+        raise error(
+            f"{where}: metadata {_FLEET_FIELD!r} is not 1 to {MAX_ROBOTS}: {_short(robots)}"
+        )
     if metadata["format"] != TABLE_FORMAT:
         raise error(f"{where}: not a {TABLE_FORMAT} file (format {_short(metadata['format'])})")
     if metadata["format_version"] != TABLE_FORMAT_VERSION:
@@ -635,9 +657,9 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _check_table(q: np.ndarray, rows: int, cols: int, *, where: str) -> None:
+def _check_table(q: np.ndarray, rows: int, cols: int, *, where: str, actions: int = 4) -> None:
     error = QTableError
-    expected = (rows, cols, rows, cols, 4)
+    expected = (rows, cols, rows, cols, actions)
     if q.dtype.kind not in "fiu":
         raise error(f"{where}: table has dtype {q.dtype}, expected numbers")
     if q.shape != expected:

@@ -20,6 +20,17 @@ import numpy as np
 
 import warehouse_phys
 from warehouse_phys.atomic import atomic_write_text
+from warehouse_phys.fleet import WarehouseFleetEnv, parallel_env
+from warehouse_phys.fleet_learning import (
+    FleetEvaluation,
+    FleetTrainingResult,
+    evaluate_fleet,
+    fleet_table_metadata,
+    greedy_fleet_policy,
+    record_fleet_episode,
+    shortest_path_policy,
+    train_fleet,
+)
 from warehouse_phys.grid import WarehouseGrid
 from warehouse_phys.layouts import PRESETS, preset_ids, resolve_layout, suggested_time_limit
 from warehouse_phys.qlearning import (
@@ -46,6 +57,8 @@ RUN_FILES = (TABLE_FILE, CURVE_FILE, GIF_FILE, SUMMARY_FILE)
 GIF_MAX_STEPS = 60
 #: The learning curve in ``summary.json``: at most this many points [1].
 CURVE_POINTS = 200
+#: The seeds a fleet's policies are evaluated with, the same for every run.
+EVALUATION_SEEDS = range(20)
 
 
 @dataclass(frozen=True)
@@ -110,6 +123,23 @@ class Floor:
             max_episode_steps=limit,
         )
 
+    def make_fleet(
+        self, kind: str, robots: int, render_mode: str | None = None
+    ) -> WarehouseFleetEnv:
+        """A fleet of ``robots`` on this floor, in the ``kind`` world, with its time limit."""
+        floor: dict[str, Any] = {"grid_rows": self.rows or 4, "grid_cols": self.cols or 5}
+        if self.preset is not None:
+            floor = {"layout": self.preset}
+        elif self.layout is not None:
+            floor = {"layout": list(self.layout)}
+        return parallel_env(
+            num_robots=robots,
+            physics=kind == "phys",
+            max_cycles=self.time_limit(),
+            render_mode=render_mode,
+            **floor,
+        )
+
 
 @dataclass(frozen=True)
 class RunOutcome:
@@ -153,6 +183,102 @@ def train_run(
         env.spec.id, env.spec.max_episode_steps, result, evaluation, seconds, summary,
         episode is not None,
     )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class FleetRunOutcome:
+    """What a fleet's run did: the shared table and records, the evaluations of the
+    learned policy and of the shortest-path baseline, and the summary it wrote."""
+
+    env_id: str
+    robots: int
+    max_cycles: int
+    result: FleetTrainingResult
+    evaluation: FleetEvaluation
+    baseline: FleetEvaluation
+    seconds: float
+    summary: dict[str, Any]
+    gif_written: bool
+
+
+def train_fleet_run(
+    folder: RunFolder,
+    floor: Floor,
+    kind: str,
+    robots: int,
+    config: QLearningConfig,
+    *,
+    gif: bool = True,
+    on_episode: Callable[[int], None] | None = None,
+) -> FleetRunOutcome:
+    """Train a fleet of ``robots`` sharing one table on ``floor`` in the ``kind`` world,
+    evaluate it and the shortest-path policy over fixed seeds, and write the run
+    into ``folder``: the table, the learning curve, a GIF of the fleet's greedy
+    episode (unless ``gif`` is false) and ``summary.json``, each atomically.
+
+    Raises:
+        warehouse_phys.runfolder.RunWriteError: naming the file that could not be written.
+        ValueError: if the floor cannot hold the fleet (too few start or package cells).
+    """
+    from warehouse_phys.plots import learning_curve_figure, save_figure
+
+    started = time.localtime()
+    env = floor.make_fleet(kind, robots)
+    start = time.perf_counter()
+    result = train_fleet(env, config, on_episode=on_episode)
+    seconds = time.perf_counter() - start
+    evaluation = evaluate_fleet(env, greedy_fleet_policy(result.q), seeds=EVALUATION_SEEDS)
+    baseline = evaluate_fleet(env, shortest_path_policy, seeds=EVALUATION_SEEDS)
+    env_id = floor.env_id(kind)
+    metadata = fleet_table_metadata(env, config, env_id)
+    env.close()
+
+    folder.write(TABLE_FILE, lambda path: save_q_table(path, result.q, metadata))
+    title = f"{robots} robots, {env_id} {env.grid.rows}x{env.grid.cols}, seed {config.seed}"
+    figure = learning_curve_figure(result, title)
+    folder.write(CURVE_FILE, lambda path: save_figure(figure, path))
+    last = slice(-min(100, len(result.steps)), None)
+    summary: dict[str, Any] = {
+        "env_id": env_id,
+        "robots": robots,
+        "grid": [env.grid.rows, env.grid.cols],
+        "layout": metadata["layout"],
+        "layout_name": metadata["layout_name"],
+        "max_cycles": env.max_cycles,
+        "config": asdict(config),
+        "package_version": warehouse_phys.__version__,
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", started),
+        "training_seconds": round(seconds, 4),
+        "training": {
+            "episodes": len(result.steps),
+            "all_delivered": int(result.reached_target.sum()),
+            "truncated": int(result.truncated.sum()),
+            "mean_steps_last_100": float(result.steps[last].mean()),
+        },
+        "learning_curve": learning_curve_points(result.steps),
+        "evaluation": {
+            "seeds": [EVALUATION_SEEDS.start, EVALUATION_SEEDS.stop],
+            "learned": evaluation.to_json(),
+            "shortest_path": baseline.to_json(),
+        },
+        "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
+    }
+    if gif:
+        shown = floor.make_fleet(kind, robots, render_mode="rgb_array")
+        try:
+            animation, delivered = record_fleet_episode(
+                shown, greedy_fleet_policy(result.q), seed=config.seed, max_steps=GIF_MAX_STEPS
+            )
+        finally:
+            shown.close()
+        folder.write(GIF_FILE, animation.save)
+        summary["files"]["episode_gif"] = GIF_FILE
+        summary["gif_episode"] = {"seed": config.seed, "delivered": delivered}
+    text = json.dumps(summary, indent=2) + "\n"
+    folder.write(SUMMARY_FILE, lambda path: atomic_write_text(path, text))
+    return FleetRunOutcome(
+        env_id, robots, env.max_cycles, result, evaluation, baseline, seconds, summary, gif
+    )
 
 
 def greedy_episode(floor: Floor, kind: str, q: Any, *, seed: int) -> EpisodeRecording:

@@ -39,6 +39,8 @@ from warehouse_phys.grid import Cell, WarehouseGrid
 WAIT = 4
 #: Number of fleet actions: the four moves and WAIT.
 FLEET_ACTIONS = 5
+#: Most robots in one fleet.
+MAX_ROBOTS = 64
 
 #: Closest two robots' centres come in a corner follow [cells]: sqrt(0.5).
 CORNER_FOLLOW_DISTANCE = math.sqrt(0.5)

@@ -12,6 +12,15 @@ every target and printed as a table.
     python -m warehouse_phys.train --eval runs/phys-seed0-20260101-120000/qtable.npz
     python -m warehouse_phys.train --rows 3 --cols 3 --render
     python -m warehouse_phys.train --env grid --layout aisles
+    python -m warehouse_phys.train --robots 3
+
+With ``--robots N`` (N > 1) a fleet of N robots on one floor trains independent
+Q-learners that share one table over their local observations (five actions:
+the moves and WAIT; see :mod:`warehouse_phys.fleet_learning`); the run folder
+holds the same four files, the GIF showing the fleet, and the learned policy
+is evaluated over fixed seeds beside a shortest-path policy that waits when
+blocked: packages delivered, steps against the shortest paths, refused moves
+and episodes stuck at the time limit.
 
 Bad arguments and unusable tables end with exit status 2 and a one-line
 message, before anything is written. The algorithm lives in
@@ -38,6 +47,7 @@ from warehouse_phys.cli import (
     bounded_int,
     floor_from_args,
 )
+from warehouse_phys.fleet_learning import evaluate_fleet, greedy_fleet_policy, shortest_path_policy
 from warehouse_phys.layouts import PRESETS
 from warehouse_phys.qlearning import (
     Evaluation,
@@ -52,14 +62,20 @@ from warehouse_phys.render import NoDisplayError, check_display
 from warehouse_phys.runfolder import RunFolder, RunFolderError, RunWriteError
 from warehouse_phys.runs import (
     CURVE_FILE,
+    EVALUATION_SEEDS,
     GIF_FILE,
     RUN_FILES,
     SUMMARY_FILE,
     TABLE_FILE,
+    train_fleet_run,
     train_run,
 )
+from warehouse_phys.traffic import MAX_ROBOTS
 
 PROG = "python -m warehouse_phys.train"
+#: Training episodes of a fleet, unless --episodes says otherwise: enough for the
+#: default floor's fleets of two to four robots to deliver every package in training.
+FLEET_EPISODES = 3000
 DEFAULT_RUNS_DIR = Path("runs")
 
 
@@ -108,6 +124,13 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"seed of the environment and the agent (default {defaults.seed})",
     )
     add_floor_arguments(parser, table_note="; with --eval it must match the table")
+    parser.add_argument(
+        "--robots",
+        type=bounded_int(1, f"a number of robots from 1 to {MAX_ROBOTS}", MAX_ROBOTS),
+        default=1,
+        help="train a fleet of this many robots on one floor, sharing one table and the "
+        "traffic rule (see warehouse_phys.fleet); default 1, the single robot",
+    )
     parser.add_argument(
         "--alpha",
         type=_fraction(low_open=True),
@@ -187,6 +210,8 @@ def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
     kind = args.env or DEFAULT_ENV
     floor = floor_from_args(args)
     episodes = args.episodes
+    if args.robots > 1:
+        return _train_fleet(args, run, kind, floor)
     if episodes is None:
         episodes = PRESETS[floor.preset].training_episodes if floor.preset else 1000
     config = QLearningConfig(episodes=episodes, alpha=args.alpha, gamma=args.gamma, seed=args.seed)
@@ -239,6 +264,59 @@ def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
         print(f"wrote {run_dir / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     if args.render:
         _watch(floor, kind, result.q, seed=args.seed)
+    return 0
+
+
+def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floor: Floor) -> int:
+    """``--robots N``: a fleet sharing one table, evaluated against the shortest-path policy."""
+    robots = args.robots
+    if args.render:
+        raise UsageError("--render shows one robot in a window; leave it out with --robots")
+    config = QLearningConfig(
+        episodes=args.episodes or FLEET_EPISODES, alpha=args.alpha, gamma=args.gamma, seed=args.seed
+    )
+    try:
+        floor.make_fleet(kind, robots).close()  # a floor too small for the fleet: say so now
+        grid = floor.grid()
+        check_training_memory(grid.rows, grid.cols, config.episodes)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    started = time.localtime()
+    label = f"{floor.label or ''}{'-' if floor.label else ''}{robots}robots"
+    if args.out is None:
+        folder = RunFolder(_new_run_dir(kind, label, args.seed, started), RUN_FILES, new=True)
+    else:
+        folder = RunFolder(args.out, RUN_FILES, overwrite=args.overwrite)
+    run.append(folder)
+    try:
+        folder.open()
+    except RunFolderError as error:
+        raise UsageError(f"--out {error}" if args.out is not None else str(error)) from None
+    finished = False
+    try:
+        progress = _progress_bar(config.episodes, f"{robots} robots", disable=args.quiet)
+        try:
+            outcome = train_fleet_run(
+                folder, floor, kind, robots, config, gif=args.gif,
+                on_episode=lambda _: progress.update(),
+            )  # fmt: skip
+        finally:
+            progress.close()
+        finished = True
+    finally:
+        folder.close(remove_if_empty=not finished)
+    if not args.quiet:
+        result = outcome.result
+        print(
+            f"trained {robots} robots sharing one table for {config.episodes} episodes on "
+            f"{outcome.env_id} in {outcome.seconds:.2f} s; every package delivered in "
+            f"{int(result.reached_target.sum())} episodes, {int(result.truncated.sum())} cut at "
+            f"{outcome.max_cycles} steps"
+        )
+        print(f"learned policy, {len(EVALUATION_SEEDS)} seeds: {outcome.evaluation.summary()}")
+        print(f"shortest paths, waiting when blocked: {outcome.baseline.summary()}")
+        written = [CURVE_FILE, *([GIF_FILE] if outcome.gif_written else []), SUMMARY_FILE]
+        print(f"wrote {folder.path / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     return 0
 
 
@@ -306,6 +384,9 @@ def _evaluate_saved(args: argparse.Namespace) -> int:
         floor = Floor(layout=tuple(metadata["layout"]), max_steps=args.max_steps)
     else:
         floor = Floor(rows=table_grid[0], cols=table_grid[1], max_steps=args.max_steps)
+    robots = metadata.get("robots", 1)
+    if robots > 1:
+        return _evaluate_saved_fleet(args, q, metadata, floor, kind)
     env = floor.make(kind)
     env_id = env.spec.id
     evaluation = evaluate(env, q)
@@ -318,6 +399,31 @@ def _evaluate_saved(args: argparse.Namespace) -> int:
         print(evaluation.table())
     if args.render:
         _watch(floor, kind, q, seed=args.seed)
+    return 0
+
+
+def _evaluate_saved_fleet(
+    args: argparse.Namespace, q: Any, metadata: dict[str, Any], floor: Floor, kind: str
+) -> int:
+    """``--eval`` of a fleet's table: its greedy policy and the shortest-path baseline."""
+    if args.render:
+        raise UsageError("--render shows one robot in a window; a fleet's table has no window")
+    robots = metadata["robots"]
+    try:
+        env = floor.make_fleet(kind, robots)
+    except ValueError as error:
+        raise UsageError(f"--eval: {error}") from None
+    learned = evaluate_fleet(env, greedy_fleet_policy(q), seeds=EVALUATION_SEEDS)
+    baseline = evaluate_fleet(env, shortest_path_policy, seeds=EVALUATION_SEEDS)
+    env.close()
+    if not args.quiet:
+        print(
+            f"evaluating {args.eval} ({robots} robots, {metadata['env_id']}, "
+            f"{metadata['grid_rows']}x{metadata['grid_cols']}, {metadata['episodes']} episodes, "
+            f"seed {metadata['seed']}) over {len(EVALUATION_SEEDS)} seeds"
+        )
+        print(f"learned policy: {learned.summary()}")
+        print(f"shortest paths, waiting when blocked: {baseline.summary()}")
     return 0
 
 

@@ -1,0 +1,79 @@
+"""A fleet's shared Q-table, its evaluation and the shortest-path baseline."""
+
+import numpy as np
+import pytest
+
+from warehouse_phys import fleet
+from warehouse_phys.fleet_learning import (
+    evaluate_fleet,
+    fleet_table_metadata,
+    greedy_fleet_policy,
+    record_fleet_episode,
+    shortest_path_policy,
+    train_fleet,
+)
+from warehouse_phys.qlearning import QLearningConfig, QTableError, load_q_table, save_q_table
+from warehouse_phys.traffic import WAIT
+
+
+def test_training_is_seeded_and_reproducible_and_learns_to_deliver():
+    config = QLearningConfig(episodes=1000, seed=3)
+    first = train_fleet(fleet.parallel_env(num_robots=2), config)
+    second = train_fleet(fleet.parallel_env(num_robots=2), config)
+    assert first.q.shape == (4, 5, 4, 5, 5)
+    assert np.array_equal(first.q, second.q)
+    assert np.array_equal(first.steps, second.steps)
+    assert first.returns[-100:].mean() > 1.9  # both packages delivered in late episodes
+    assert first.steps[-100:].mean() < first.steps[:100].mean() / 3
+    other = train_fleet(fleet.parallel_env(num_robots=2), QLearningConfig(episodes=50, seed=4))
+    assert not np.array_equal(first.steps[:50], other.steps)
+
+
+def test_the_learned_policy_beats_random_and_delivers_near_the_shortest_paths():
+    env = fleet.parallel_env(num_robots=2)
+    result = train_fleet(env, QLearningConfig(episodes=2000, seed=0))
+    learned = evaluate_fleet(env, greedy_fleet_policy(result.q))
+    assert learned.delivered >= 30  # of 40
+    assert 0 <= learned.delay <= 0.1 * learned.shortest_steps
+    assert learned.to_json()["delay"] == learned.delay
+
+
+def test_the_shortest_path_policy_takes_shortest_moves_and_waits_when_blocked():
+    env = fleet.parallel_env(num_robots=2, grid_rows=3, grid_cols=5)
+    observations, infos = env.reset(seed=0)
+    env._cells = [(1, 1), (1, 2)]  # robot_1 stands in robot_0's way
+    env._packages = [(1, 3), (2, 4)]
+    observations = {
+        agent: np.array((*env._cells[i], *env._packages[i])) for i, agent in enumerate(env.agents)
+    }
+    actions = shortest_path_policy(env, observations, infos)
+    assert actions["robot_0"] == WAIT  # its only shortest move is taken
+    assert actions["robot_1"] in (1, 2)  # down or right: both shorten its path
+    evaluation = evaluate_fleet(fleet.parallel_env(num_robots=3), shortest_path_policy)
+    assert evaluation.delivered > 0
+    assert evaluation.robot_steps >= evaluation.shortest_steps
+
+
+def test_a_fleet_table_round_trips_and_a_wrong_shape_is_refused(tmp_path):
+    env = fleet.parallel_env(num_robots=3)
+    metadata = fleet_table_metadata(env, QLearningConfig(episodes=10), "warehouse-robot-v0")
+    q = np.arange(4 * 5 * 4 * 5 * 5, dtype=float).reshape(4, 5, 4, 5, 5)
+    save_q_table(tmp_path / "fleet.npz", q, metadata)
+    loaded, loaded_metadata = load_q_table(tmp_path / "fleet.npz")
+    assert np.array_equal(loaded, q)
+    assert loaded_metadata["robots"] == 3
+    with pytest.raises(QTableError, match=r"expected \(4, 5, 4, 5, 5\)"):
+        save_q_table(tmp_path / "bad.npz", q[..., :4], metadata)
+    with pytest.raises(QTableError, match="'robots' is not 1 to 64"):
+        save_q_table(tmp_path / "bad.npz", q, {**metadata, "robots": 0})
+    assert not (tmp_path / "bad.npz").exists()
+
+
+@pytest.mark.parametrize("physics", [False, True])
+def test_the_recorded_episode_shows_the_fleet_moving(physics):
+    env = fleet.parallel_env(num_robots=2, physics=physics, render_mode="rgb_array", cell_px=32)
+    animation, delivered = record_fleet_episode(env, shortest_path_policy, seed=0, max_steps=6)
+    frames_per_step = 15 if physics else 1  # every physics step, or one jump a step
+    assert len(animation.frames) == 1 + 6 * frames_per_step or delivered == 2
+    assert animation.fps == (60 if physics else 4)
+    assert animation.frames[0].shape == (4 * 32 + 20, 5 * 32, 3)
