@@ -7,9 +7,11 @@ import pytest
 
 import warehouse_phys
 from tests.test_render import robot_centre
-from warehouse_phys import Action
+from warehouse_phys import Action, fleet
 from warehouse_phys import play as play_cli
-from warehouse_phys.play import HUD_LINE_PX, HUD_LINES, PlaySession
+from warehouse_phys.fleet_learning import shortest_path_policy
+from warehouse_phys.play import HUD_LINE_PX, HUD_LINES, FleetPlaySession, PlaySession
+from warehouse_phys.traffic import WAIT
 
 GRID_ID = warehouse_phys.GRID_ENV_ID
 PHYS_ID = warehouse_phys.PHYSICS_ENV_ID
@@ -296,3 +298,75 @@ def test_sdls_invisible_drivers_count_as_no_display(monkeypatch):
     with pytest.raises(NoDisplayError, match="chose its 'offscreen' driver, which shows nothing"):
         check_display(FakePygame)
     check_display()  # a DISPLAY alone passes the first check
+
+
+# ------------------------------------------------------------------- a fleet
+@pytest.fixture
+def fleet_session():
+    sessions = []
+
+    def make(robots=3, seed=0, **kwargs):
+        env = fleet.parallel_env(num_robots=robots, render_mode="rgb_array", **kwargs)
+        session = FleetPlaySession(env, seed=seed)
+        sessions.append(session)
+        return session
+
+    yield make
+    for session in sessions:
+        session.close()
+
+
+def test_a_person_drives_robot_0_while_the_others_take_shortest_paths(fleet_session):
+    session = fleet_session(seed=0)
+    reference = fleet.parallel_env(num_robots=3)
+    observations, infos = reference.reset(seed=0)
+    assert session.hud_lines() == [
+        "step 0   delivered 0/3",
+        "episode 1: drive the red robot to the red package",
+        "arrows drive   space waits   R new episode   Esc quits",
+    ]
+    for k, action in [(pygame.K_RIGHT, Action.RIGHT), (pygame.K_SPACE, WAIT),
+                      (pygame.K_DOWN, Action.DOWN)]:  # fmt: skip
+        session.handle(key(k))
+        live = {a: o for a, o in observations.items() if a in reference.agents}
+        actions = shortest_path_policy(reference, {a: o for a, o in live.items() if a != "robot_0"},
+                                       infos)  # fmt: skip
+        actions["robot_0"] = int(action)
+        observations, *_, infos = reference.step(actions)
+        assert np.array_equal(session.env.state(), reference.state())
+    assert session.steps == 3
+    assert np.array_equal(window_pixels()[: 4 * 64 + 24], session.env.render())
+
+
+def test_a_fleet_episode_ends_when_every_package_is_delivered(fleet_session):
+    session = fleet_session(robots=2, seed=1)
+    for _ in range(60):
+        if session.episode_over:
+            break
+        row, col, p_row, p_col = session.env.state()[:4]
+        toward = (pygame.K_DOWN if row < p_row else pygame.K_UP if row > p_row
+                  else pygame.K_RIGHT if col < p_col else pygame.K_LEFT)  # fmt: skip
+        session.handle(key(toward if "robot_0" in session.env.agents else pygame.K_SPACE))
+    assert session.terminated
+    assert session.delivered == 2
+    assert session.hud_lines()[1] == f"Every package delivered in {session.steps} steps"
+    session.handle(key(pygame.K_RIGHT))  # the next key starts over
+    assert (session.episodes, session.steps, session.delivered) == (2, 0, 0)
+
+
+def test_the_fleets_physics_plays_as_motion(fleet_session, monkeypatch):
+    session = fleet_session(physics=True)
+    drawn = []
+    monkeypatch.setattr(session, "_draw", lambda: drawn.append(session._frame))
+    session.handle(key(pygame.K_RIGHT))
+    assert len(drawn) == 15  # 14 frames of motion, then the snapped frame
+
+
+def test_main_plays_a_fleet_and_refuses_one_too_big_for_the_floor(monkeypatch, capsys):
+    made = []
+    monkeypatch.setattr(FleetPlaySession, "run", lambda self: made.append(self.env.num_robots))
+    assert play_cli.main(["--robots", "4", "--env", "grid"]) == 0
+    assert made == [4]
+    assert play_cli.main(["--robots", "9", "--rows", "2", "--cols", "2"]) == 2
+    assert "9 robots need 9 start cells" in capsys.readouterr().err
+    pygame.display.quit()

@@ -12,6 +12,11 @@ window) quits.
     python -m warehouse_phys.play
     python -m warehouse_phys.play --env grid --rows 6 --cols 8 --seed 3
     python -m warehouse_phys.play --layout maze
+    python -m warehouse_phys.play --robots 4
+
+With ``--robots N`` a fleet shares the floor: you drive ``robot_0`` (red, like
+its package; space waits) and the others follow shortest paths, waiting when
+blocked, under the fleet's traffic rule.
 
 The first episode is reset with ``--seed``, the next ones continue its random
 stream, so a seed replays the same sequence of targets. Bad arguments end
@@ -31,6 +36,7 @@ import numpy as np
 from warehouse_phys.cli import (
     DEFAULT_ENV,
     ArgumentParser,
+    Floor,
     UsageError,
     add_env_argument,
     add_floor_arguments,
@@ -38,8 +44,11 @@ from warehouse_phys.cli import (
     floor_from_args,
 )
 from warehouse_phys.envs import WarehousePhysicsEnv
+from warehouse_phys.fleet import WarehouseFleetEnv
+from warehouse_phys.fleet_learning import shortest_path_policy
 from warehouse_phys.grid import Action
 from warehouse_phys.render import NoDisplayError, check_display, fit_text, import_pygame
+from warehouse_phys.traffic import MAX_ROBOTS, WAIT
 
 PROG = "python -m warehouse_phys.play"
 #: Pace of the window while waiting for a key [frames/s].
@@ -52,6 +61,7 @@ HUD_LINE_PX = 22  # [px] height of one line of text under the frame
 HUD_LINES = 3
 DRIVING_KEYS = "arrows drive   R new episode   Esc quits"
 NEXT_EPISODE_KEYS = "arrows or R: next episode   Esc quits"
+FLEET_KEYS = "arrows drive   space waits   R new episode   Esc quits"
 
 
 class PlaySession:
@@ -206,6 +216,87 @@ class PlaySession:
         pg.display.flip()
 
 
+class FleetPlaySession(PlaySession):
+    """A fleet in the window: the person drives ``robot_0``, the others follow
+    :func:`~warehouse_phys.fleet_learning.shortest_path_policy`.
+
+    Arrows move ``robot_0`` (red, like its package), space makes it wait; every
+    key is one joint step of the whole fleet under the traffic rule. Once
+    ``robot_0`` has delivered, keys keep the others going until all have.
+
+    Args:
+        env: The fleet, made with ``render_mode="rgb_array"``.
+        seed: Seed of the first reset; later episodes continue its stream.
+        title: The window's caption.
+    """
+
+    def __init__(
+        self, env: WarehouseFleetEnv, *, seed: int | None = None, title: str = PROG
+    ) -> None:
+        self.delivered = 0
+        self.refused = False
+        super().__init__(env, seed=seed, title=title)
+        self.action_keys[self._pg.K_SPACE] = WAIT
+        self._physics = env.physics
+        self._fps = 1 / env.config.dt if env.physics else float(env.metadata["render_fps"])
+
+    @property
+    def episode_over(self) -> bool:
+        """Whether every robot delivered, or the time limit ended the episode."""
+        return self.terminated or self.truncated
+
+    def step(self, action: int) -> None:
+        """One joint step: ``robot_0`` takes ``action``, the others their shortest paths."""
+        env = self.env
+        others = {agent: obs for agent, obs in self.obs.items() if agent != "robot_0"}
+        actions = shortest_path_policy(env, others, self.info)
+        if "robot_0" in env.agents:
+            actions["robot_0"] = int(action)
+        observations, rewards, _, truncations, infos = env.step(actions)
+        if self._physics:
+            for frame in env.move_frames()[:-1]:  # the motion in real time
+                self._frame = frame
+                self._draw()
+                self._clock.tick(self._fps)
+        self.obs = {agent: observations[agent] for agent in env.agents}
+        self.info = {agent: infos[agent] for agent in env.agents}
+        self.refused = bool(infos.get("robot_0", {}).get("refused", False))
+        self.steps += 1
+        self.last_reward = float(rewards.get("robot_0", 0.0))
+        self.episode_return += self.last_reward
+        self.delivered += int(sum(rewards.values()))
+        self.truncated = any(truncations.values())
+        self.terminated = not env.agents and not self.truncated
+        self._frame = env.render()
+        self._draw()
+
+    def hud_lines(self) -> list[str]:
+        """The counters, what ``robot_0`` is doing, and the keys."""
+        robots = self.env.num_robots
+        counters = f"step {self.steps}   delivered {self.delivered}/{robots}"
+        if self.terminated:
+            return [counters, f"Every package delivered in {self.steps} steps", NEXT_EPISODE_KEYS]
+        if self.truncated:
+            return [counters, f"Time is up after {self.steps} steps", NEXT_EPISODE_KEYS]
+        if "robot_0" not in self.env.agents:
+            line = "your robot delivered: keys move the others on"
+        elif self.refused:
+            line = "your move was refused: another robot holds or takes that cell"
+        else:
+            line = f"episode {self.episodes}: drive the red robot to the red package"
+        return [counters, line, FLEET_KEYS]
+
+    def _new_episode(self, seed: int | None) -> np.ndarray:
+        self.obs, self.info = self.env.reset(seed=seed)
+        self.episodes += 1
+        self.steps = 0
+        self.delivered = 0
+        self.refused = False
+        self.last_reward = self.episode_return = 0.0
+        self.terminated = self.truncated = False
+        return self.env.render()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command line's argument parser."""
     parser = ArgumentParser(
@@ -219,6 +310,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=bounded_int(0, "a non-negative integer seed"),
         help="seed of the first episode's target (default: a new one each run)",
     )
+    parser.add_argument(
+        "--robots",
+        type=bounded_int(1, f"a number of robots from 1 to {MAX_ROBOTS}", MAX_ROBOTS),
+        default=1,
+        help="a fleet of this many robots: you drive robot_0 (red), the others take "
+        "shortest paths (default 1)",
+    )
     return parser
 
 
@@ -230,10 +328,18 @@ def main(argv: list[str] | None = None) -> int:
     except UsageError as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
-    env = floor.make(args.env, render_mode="rgb_array")
+    try:
+        env = make_env(floor, args.env, args.robots)
+    except ValueError as error:  # a floor too small for the fleet
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 2
     pg = import_pygame()
     try:
-        session = PlaySession(env, seed=args.seed, title=f"{PROG}: {env.spec.id}")
+        if args.robots > 1:
+            title = f"{PROG}: {args.robots} robots on {floor.env_id(args.env)}"
+            session: PlaySession = FleetPlaySession(env, seed=args.seed, title=title)
+        else:
+            session = PlaySession(env, seed=args.seed, title=f"{PROG}: {env.spec.id}")
     except NoDisplayError as error:  # an SSH session, a container, a CI machine
         env.close()
         pg.display.quit()
@@ -253,6 +359,13 @@ def main(argv: list[str] | None = None) -> int:
         session.close()
         return 130
     return 0
+
+
+def make_env(floor: Floor, kind: str, robots: int) -> gym.Env | WarehouseFleetEnv:
+    """The environment to play: the single robot's, or a fleet of ``robots``."""
+    if robots > 1:
+        return floor.make_fleet(kind, robots, render_mode="rgb_array")
+    return floor.make(kind, render_mode="rgb_array")
 
 
 if __name__ == "__main__":

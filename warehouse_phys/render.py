@@ -292,12 +292,8 @@ class WarehouseRenderer:
             surface: Where to draw; must be :attr:`width` x :attr:`height`.
         """
         pg = self._ensure_pygame()
-        if surface is None:
-            if self._canvas is None:
-                self._canvas = pg.Surface((self.width, self.height))
-            surface = self._canvas
+        surface = self._floor_and_status(status, surface)
         px = self.cell_px
-        surface.blit(self._floor, (0, 0))
         surface.blit(self._package, (target[1] * px, target[0] * px))
         surface.blit(self._robot, (round(robot[1] * px), round(robot[0] * px)))
         if robot[0] == target[0] and robot[1] == target[1]:
@@ -305,6 +301,17 @@ class WarehouseRenderer:
             left, top = target[1] * px, target[0] * px
             surface.blit(self._package_carried, (left + px // 2, top))
             pg.draw.rect(surface, DELIVERED_FRAME, (left, top, px, px), width=max(2, px // 16))
+        return surface
+
+    def _floor_and_status(self, status: str, surface: pygame.Surface | None) -> pygame.Surface:
+        """``surface`` (the off-screen canvas by default) with the floor and the status line."""
+        pg = self._pg
+        if surface is None:
+            if self._canvas is None:
+                self._canvas = pg.Surface((self.width, self.height))
+            surface = self._canvas
+        px = self.cell_px
+        surface.blit(self._floor, (0, 0))
         surface.fill(STATUS_BACKGROUND, (0, self.rows * px, self.width, self.status_px))
         if status:
             text = self._status_surface(status)
@@ -329,9 +336,8 @@ class WarehouseRenderer:
         """A frame of a fleet: robot ``i`` at ``robots[i]`` (cell units, as in :meth:`draw`)
         on a disc of colour ``FLEET_COLOURS[i]``, its package framed in the same colour."""
         pg = self._ensure_pygame()
-        surface = self.draw(robots[0], packages[0], status)
+        surface = self._floor_and_status(status, None)
         px = self.cell_px
-        surface.blit(self._floor, (0, 0))  # draw() drew robot 0 alone: start again
         border = max(2, px // 16)
         for i, (row, col) in enumerate(packages):
             colour = FLEET_COLOURS[i % len(FLEET_COLOURS)]
