@@ -20,6 +20,8 @@ Groups and references:
   ``SyncVectorEnv`` of the same environment, at several ``num_envs``;
 - physics vector: the native ``gym.make_vec("warehouse-robot-phys-v0")`` against
   the single physics environment, in robot-actions per second, at several ``num_envs``;
+- fleet: joint steps per second of a fleet (2, 8 and 16 robots, both worlds)
+  against single physics-backed environment steps;
 - physics: a physics step (the move loop's, against ``Space.step``), a move, a reset;
 - world model: building a big floor and suggesting time limits (no reference).
 
@@ -317,6 +319,50 @@ def physics_vector_figures(sizes: list[int], robot_actions: int, rounds: int) ->
     return figures
 
 
+# -------------------------------------------------------------------- fleet
+def fleet_stepper(robots: int, physics: bool, joint_steps: int) -> Callable[[], float]:
+    """Random joint actions (WAIT included) for a lifelong fleet on an 8 x 10 floor."""
+    from warehouse_phys.fleet import parallel_env
+
+    env = parallel_env(
+        num_robots=robots, physics=physics, grid_rows=8, grid_cols=10, lifelong=True,
+        max_cycles=10**9,
+    )  # fmt: skip
+    env.reset(seed=0)
+    names = env.possible_agents
+    joint = [
+        dict(zip(names, row, strict=True))
+        for row in np.random.default_rng(4).integers(5, size=(joint_steps, robots)).tolist()
+    ]
+
+    def run() -> float:
+        step = env.step
+        for actions in joint:
+            step(actions)
+        return len(joint)
+
+    return run
+
+
+def fleet_figures(sizes: list[int], joint_steps: int, rounds: int) -> list[Figure]:
+    """Joint steps per second of a fleet in both worlds, against single physics env steps."""
+    reference = f"single {PHYS_ID} step (gym.make)"
+    actions = np.random.default_rng(5).integers(4, size=joint_steps).tolist()
+    candidates = [Candidate(reference, "steps/s", stepper(gym.make(PHYS_ID), actions))]
+    for physics in (False, True):
+        for n in sizes:
+            candidates.append(
+                Candidate(
+                    f"fleet of {n}, {'physics' if physics else 'grid twin'}",
+                    "joint steps/s",
+                    fleet_stepper(n, physics, joint_steps),
+                    # An 8-robot physics joint step costs at most 3 single physics steps.
+                    target_ratio=1 / 3 if physics and n == 8 else None,
+                )
+            )
+    return interleaved(candidates, rounds, reference=reference)
+
+
 # ------------------------------------------------------------------ physics
 def physics_figures(rounds: int) -> list[Figure]:
     config = PhysicsConfig()
@@ -478,6 +524,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         "vector_env_steps": 5_000 if args.quick else 400_000,
         "physics_vector_sizes": [1, 16] if args.quick else [1, 16, 64, 256, 1024],
         "physics_vector_robot_actions": 400 if args.quick else 20_000,
+        "fleet_sizes": [2, 8] if args.quick else [2, 8, 16],
+        "fleet_joint_steps": 50 if args.quick else 1000,
     }
     sections = {
         f"stepping ({budget['actions']:,} random actions a round, resets included)": (
@@ -494,6 +542,9 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         ),
         "physics vector (random actions, autoreset included)": physics_vector_figures(
             budget["physics_vector_sizes"], budget["physics_vector_robot_actions"], rounds
+        ),
+        "fleet (random joint actions on an 8 x 10 floor, lifelong)": fleet_figures(
+            budget["fleet_sizes"], budget["fleet_joint_steps"], rounds
         ),
         "physics (default settings)": physics_figures(rounds),
         "world model": world_model_figures(rounds),

@@ -46,6 +46,10 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
         native = row(f"native physics vector env, {n} envs")
         assert re.search(rf"robot-actions/s\s+{ratio}", native)
         assert row(f"gym.make physics env, beside {n} envs").endswith("reference")
+    for world in ("grid twin", "physics"):
+        for n in (2, 8):
+            assert re.search(rf"joint steps/s\s+{ratio}", row(f"fleet of {n}, {world}"))
+    assert re.search(r">= 0\.333333x: (met|MISSED)$", row("fleet of 8, physics"))
     assert re.search(r" us\s+" + ratio, row("physics step (move loop)"))
     for name in ("one move", "a new world", "one reset (world.restart)"):
         assert " us" in row(name)
@@ -57,7 +61,7 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     assert results["machine"]["cpu_count"] >= 1
     assert results["timer"] == "time.process_time"
     figures = [f for section in results["sections"].values() for f in section]
-    assert len(figures) == 6 + 3 + 3 + 4 + 4 + 5 + 4
+    assert len(figures) == 6 + 3 + 3 + 4 + 4 + 5 + 5 + 4
     for figure in figures:
         assert len(figure["rounds"]) == results["rounds"] == 2
         assert figure["low"] <= figure["value"] <= figure["high"]

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import pymunk
@@ -56,6 +57,54 @@ _SNAP_FIELDS = (
     | pymunk.batch.BodyFields.ANGULAR_VELOCITY
 )
 _BODY_ID = pymunk.batch.BodyFields.BODY_ID
+
+
+class _PositionReader:
+    """Every body's position in one call into chipmunk, into an array of our own.
+
+    :func:`pymunk.batch.get_space_bodies` builds its call's arguments anew and
+    fills a buffer that has to be copied out, every time; a recorded move reads
+    positions after every physics step, so this reader keeps both: pymunk's own
+    iterator function with a persistent argument block, filling our array. The
+    array has room for three more numbers than the bodies need, because
+    pymunk's buffer grows (and would move our memory) when fewer than three
+    places are left; no body is ever added to a world's space after it is
+    built. Without the pymunk internals this needs, it reads through
+    :func:`pymunk.batch.get_space_bodies`.
+    """
+
+    def __init__(self, n_bodies: int) -> None:
+        self.n_bodies = n_bodies
+        self._floats = np.zeros(2 * n_bodies + 4)
+        self._buffer = pymunk.batch.Buffer()
+        self._buffer.set_float_buf(self._floats)
+        self._positions = self._floats[: 2 * n_bodies].reshape(n_bodies, 2)
+        try:
+            from pymunk._chipmunk import ffi, lib
+
+            data = ffi.new("pmBatchedData *")
+            data.fields = _POSITION.value
+            data.floatArray = self._buffer._float_arr
+            data.intArray = self._buffer._int_arr
+            iterate = ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
+            self._call: tuple[Any, ...] | None = (lib.cpSpaceEachBody, iterate, data)
+        except (ImportError, AttributeError):  # pragma: no cover - pymunk internals moved
+            self._call = None
+
+    def read(self, space: pymunk.Space) -> np.ndarray:
+        """``(bodies, 2)`` positions ``(x, y)`` [m] in the space's order: a view, valid
+        until the next read."""
+        if self._call is None:  # pragma: no cover - pymunk internals moved
+            buffer = pymunk.batch.Buffer()
+            pymunk.batch.get_space_bodies(space, _POSITION, buffer)
+            return np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
+        each_body, iterate, data = self._call
+        floats = self._buffer._float_arr
+        floats.num = 0
+        each_body(space._space, iterate, data)
+        if floats.num != 2 * self.n_bodies:  # pragma: no cover - a body was added
+            raise RuntimeError(f"the space holds {floats.num // 2} bodies, not {self.n_bodies}")
+        return self._positions
 
 
 class BatchedPhysicsWorld:
@@ -150,7 +199,6 @@ class BatchedPhysicsWorld:
 
         self._body_ids = self._collect_body_ids()
         # Batched I/O: arrays with a row for every body of the space, in the space's order.
-        self._read = pymunk.batch.Buffer()
         self._positions_io = pymunk.batch.Buffer()
         self._snap_io = pymunk.batch.Buffer()
         self._find_bodies()
@@ -159,13 +207,12 @@ class BatchedPhysicsWorld:
     def __getstate__(self) -> dict[str, object]:
         # The batched I/O buffers hold C pointers; a copy or an unpickled world makes its own.
         state = self.__dict__.copy()
-        for name in ("_read", "_positions_io", "_snap_io", "_positions", "_snap", "_body_ids"):
+        for name in ("_reader", "_positions_io", "_snap_io", "_positions", "_snap", "_body_ids"):
             state.pop(name)
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
         self.__dict__.update(state)
-        self._read = pymunk.batch.Buffer()
         self._positions_io = pymunk.batch.Buffer()
         self._snap_io = pymunk.batch.Buffer()
         self._body_ids = self._collect_body_ids()  # a copy's bodies are new C objects
@@ -303,11 +350,7 @@ class BatchedPhysicsWorld:
 
     def _read_robots(self) -> np.ndarray:
         """Every robot's ``(x, y)`` [m], in robot order, with one batched read."""
-        buffer = self._read
-        buffer.clear()
-        pymunk.batch.get_space_bodies(self.space, _POSITION, buffer)
-        every = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
-        return every[self._robot_rows]  # fancy indexing: a copy
+        return self._reader.read(self.space)[self._robot_rows]  # fancy indexing: a copy
 
     def _write_positions(self, robot_xy: np.ndarray, control_xy: np.ndarray) -> None:
         """Place every robot and every control body [m], with one batched write.
@@ -350,6 +393,7 @@ class BatchedPhysicsWorld:
         self._body_rows = where  # robots, then their control bodies
         self._positions = every_xy.copy()  # the rows of other bodies keep their positions
         self._positions_io.set_float_buf(self._positions)
+        self._reader = _PositionReader(len(in_space))
         self._snap = np.zeros((len(in_space), 5))  # x, y, vx, vy, angular velocity
         self._snap[:, :2] = every_xy
         self._snap_io.set_float_buf(self._snap)
