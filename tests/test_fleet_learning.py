@@ -8,7 +8,9 @@ from warehouse_phys.fleet_learning import (
     evaluate_fleet,
     fleet_table_metadata,
     greedy_fleet_policy,
+    random_fleet_policy,
     record_fleet_episode,
+    sample_fleet_gaps,
     shortest_path_policy,
     train_fleet,
 )
@@ -77,3 +79,14 @@ def test_the_recorded_episode_shows_the_fleet_moving(physics):
     assert len(animation.frames) == 1 + 6 * frames_per_step or delivered == 2
     assert animation.fps == (60 if physics else 4)
     assert animation.frames[0].shape == (4 * 32 + 20, 5 * 32, 3)
+
+
+def test_sampled_gaps_are_every_robots_closest_approach_and_need_the_physics():
+    env = fleet.parallel_env(num_robots=4, physics=True, lifelong=True)
+    gaps = sample_fleet_gaps(env, random_fleet_policy(1), 40, seed=0)
+    assert gaps.shape == (4 * 40,)
+    assert gaps.min() > -0.002  # never deeper than the collision slop
+    again = sample_fleet_gaps(env, random_fleet_policy(1), 40, seed=0)
+    assert np.array_equal(gaps, again)  # seeded: the same run
+    with pytest.raises(ValueError, match="only the physics world"):
+        sample_fleet_gaps(fleet.parallel_env(num_robots=2), random_fleet_policy(1), 5, seed=0)

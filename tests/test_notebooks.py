@@ -16,7 +16,7 @@ import pytest
 from tests.conftest import ROOT
 
 NOTEBOOKS = ROOT / "notebooks"
-EXPECTED = ["smooth_vs_discrete.ipynb", "training.ipynb"]
+EXPECTED = ["fleet.ipynb", "smooth_vs_discrete.ipynb", "training.ipynb"]
 MAX_BYTES = 2 * 1024 * 1024
 #: What a notebook may import: the package, and Gymnasium to make its environments.
 ALLOWED_IMPORTS = {"warehouse_phys", "gymnasium"}

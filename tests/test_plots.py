@@ -4,8 +4,11 @@ import numpy as np
 import pytest
 
 from warehouse_phys import SNAP_ERROR_BOUND, Action, WarehouseGrid
+from warehouse_phys.fleet_learning import FleetEvaluation
 from warehouse_phys.physics import PhysicsConfig
 from warehouse_phys.plots import (
+    fleet_delay_figure,
+    fleet_gap_figure,
     frame_strips_figure,
     learning_curve_figure,
     learning_curves_figure,
@@ -169,3 +172,27 @@ def test_policy_figure_draws_one_arrow_per_trained_cell_and_every_value():
 def test_figures_save_as_png(tmp_path):
     for i, figure in enumerate(every_figure()):
         assert save_figure(figure, tmp_path / f"{i}.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_fleet_gap_histogram_marks_touching_and_the_corner_follow():
+    gaps = np.array([0.107, 0.4, 0.4, 1.0, np.inf])  # inf: a robot alone, nothing to measure
+    figure = fleet_gap_figure(gaps, PhysicsConfig())
+    (ax,) = figure.axes
+    assert sum(patch.get_height() for patch in ax.patches) == 4
+    lines = [line.get_xdata()[0] for line in ax.lines]
+    assert lines[0] == 0.0
+    assert lines[1] == pytest.approx(np.sqrt(0.5) - 0.6)
+    assert lines[2] == pytest.approx(0.107)
+    with pytest.raises(ValueError, match="no gaps"):
+        fleet_gap_figure(np.array([np.inf]), PhysicsConfig())
+
+
+def test_fleet_delay_figure_shows_steps_against_shortest_paths_and_misses():
+    learned = FleetEvaluation(20, 3, 50, 180, 170, 40, 5)
+    baseline = FleetEvaluation(20, 3, 55, 210, 190, 2, 3)
+    figure = fleet_delay_figure({"learned": learned, "shortest paths": baseline})
+    steps_ax, missed_ax = figure.axes
+    assert [p.get_height() for p in steps_ax.patches] == [170, 190, 180, 210]
+    assert [p.get_height() for p in missed_ax.patches] == [10, 5]
+    with pytest.raises(ValueError, match="nothing to plot"):
+        fleet_delay_figure({})

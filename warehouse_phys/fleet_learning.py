@@ -284,3 +284,41 @@ def fleet_table_metadata(
         "layout_name": None if layout is None else preset_name(layout),
         "robots": env.num_robots,
     }
+
+
+def sample_fleet_gaps(
+    env: WarehouseFleetEnv, policy: FleetPolicy, steps: int, *, seed: int
+) -> np.ndarray:
+    """``info["min_gap"]`` of every robot over ``steps`` joint steps of ``policy`` [cells]:
+    how close each robot's disc came to another's during each step.
+
+    The fleet is reset with ``seed``, and again (unseeded) whenever an episode ends.
+
+    Raises:
+        ValueError: if ``env`` is not the physics world (the grid twin has no discs).
+    """
+    if not env.physics:
+        raise ValueError("only the physics world (physics=True) has discs that can come close")
+    observations, infos = env.reset(seed=seed)
+    gaps = []
+    for _ in range(steps):
+        if not env.agents:
+            observations, infos = env.reset()
+        live = {agent: observations[agent] for agent in env.agents}
+        observations, _, _, _, infos = env.step(policy(env, live, infos))
+        gaps.extend(info["min_gap"] for info in infos.values())
+    return np.array(gaps, dtype=np.float64)
+
+
+def random_fleet_policy(seed: int) -> FleetPolicy:
+    """Every robot takes a uniformly random action of the five, from a generator of ``seed``."""
+    rng = np.random.default_rng([seed, 3])
+
+    def policy(
+        env: WarehouseFleetEnv,
+        observations: dict[str, np.ndarray],
+        infos: dict[str, dict[str, Any]],
+    ) -> dict[str, int]:
+        return {agent: int(rng.integers(FLEET_ACTIONS)) for agent in observations}
+
+    return policy

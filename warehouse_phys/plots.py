@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -21,6 +22,9 @@ from warehouse_phys.atomic import atomic_write
 from warehouse_phys.grid import WarehouseGrid
 from warehouse_phys.physics import PhysicsConfig
 from warehouse_phys.qlearning import TrainingResult, greedy_actions, state_values
+
+if TYPE_CHECKING:
+    from warehouse_phys.fleet_learning import FleetEvaluation
 
 #: Episodes averaged in the rolling mean of the learning curve.
 ROLLING_WINDOW = 100
@@ -209,6 +213,60 @@ def snap_error_figure(errors: np.ndarray, bound: float, title: str = "") -> Figu
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(alpha=0.3)
     ax.set_title(title or f"{errors.size} moves")
+    return figure
+
+
+def fleet_gap_figure(gaps: np.ndarray, config: PhysicsConfig, title: str = "") -> Figure:
+    """A histogram of how close robots' discs came to each other [cells] (``min_gap``):
+    0 is touching; the line marks a corner follow's gap, the closest the traffic rule allows."""
+    from warehouse_phys.physics import COLLISION_SLOP
+    from warehouse_phys.traffic import CORNER_FOLLOW_DISTANCE
+
+    gaps = np.asarray(gaps, dtype=np.float64)
+    gaps = gaps[np.isfinite(gaps)]
+    if gaps.size == 0:
+        raise ValueError("no gaps to plot")
+    diameter = 2 * config.robot_radius / config.cell_size
+    corner = CORNER_FOLLOW_DISTANCE - diameter
+    figure = _figure(figsize=(6.5, 3.2))
+    ax = figure.subplots()
+    ax.hist(gaps, bins=np.linspace(-COLLISION_SLOP, max(gaps.max(), 1.5), 81), color="C0")
+    ax.axvline(0.0, color="C3", linestyle="--", label="discs touching")
+    ax.axvline(corner, color="C2", linestyle=":", label=f"corner follow {corner:.3f}")
+    ax.axvline(gaps.min(), color="C1", label=f"closest {gaps.min():.3f}")
+    ax.set_xlabel("smallest gap between two robots' discs during a step [cells]")
+    ax.set_ylabel("robot-steps")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.set_title(title or f"{gaps.size} robot-steps")
+    return figure
+
+
+def fleet_delay_figure(evaluations: Mapping[str, FleetEvaluation], title: str = "") -> Figure:
+    """For each policy, the delivering robots' steps beside their shortest paths, and the
+    packages left undelivered: what traffic costs."""
+    if not evaluations:
+        raise ValueError("evaluations is empty: nothing to plot")
+    names = list(evaluations)
+    figure = _figure(figsize=(7.5, 3.2))
+    steps_ax, missed_ax = figure.subplots(1, 2)
+    x = np.arange(len(names))
+    shortest = [evaluations[n].shortest_steps for n in names]
+    taken = [evaluations[n].robot_steps for n in names]
+    steps_ax.bar(x - 0.2, shortest, 0.4, label="shortest paths", color="C2")
+    steps_ax.bar(x + 0.2, taken, 0.4, label="steps taken", color="C0")
+    steps_ax.set_xticks(x, names)
+    steps_ax.set_ylabel("robot-steps of the delivered packages")
+    steps_ax.legend(fontsize=8)
+    missed = [evaluations[n].episodes * evaluations[n].robots - evaluations[n].delivered
+              for n in names]  # fmt: skip
+    missed_ax.bar(x, missed, 0.5, color="C3")
+    missed_ax.set_xticks(x, names)
+    missed_ax.set_ylabel("packages not delivered")
+    for ax in (steps_ax, missed_ax):
+        ax.grid(alpha=0.3, axis="y")
+    if title:
+        figure.suptitle(title)
     return figure
 
 
