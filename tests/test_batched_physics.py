@@ -58,7 +58,7 @@ def test_every_robot_moves_as_in_a_single_world_at_every_physics_step(name):
     assert exact[0]
 
 
-@settings(max_examples=30)
+@settings(max_examples=20)
 @given(
     history=st.lists(st.integers(0, 3), max_size=60),
     others=st.lists(st.integers(0, 3), min_size=40, max_size=40),

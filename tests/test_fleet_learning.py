@@ -31,9 +31,9 @@ def test_training_is_seeded_and_reproducible_and_learns_to_deliver():
     assert not np.array_equal(first.steps[:50], other.steps)
 
 
-def test_the_learned_policy_beats_random_and_delivers_near_the_shortest_paths():
+def test_the_learned_policy_delivers_near_the_shortest_paths():
     env = fleet.parallel_env(num_robots=2)
-    result = train_fleet(env, QLearningConfig(episodes=2000, seed=0))
+    result = train_fleet(env, QLearningConfig(episodes=1200, seed=0))
     learned = evaluate_fleet(env, greedy_fleet_policy(result.q))
     assert learned.delivered >= 30  # of 40
     assert 0 <= learned.delay <= 0.1 * learned.shortest_steps

@@ -549,7 +549,7 @@ def test_render_without_a_display_exits_1_before_training(tmp_path):
 # ------------------------------------------------------------------- a fleet
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    ("env", "episodes", "floor"), [("grid", 400, (4, 5)), ("phys", 20, (3, 3))]
+    ("env", "episodes", "floor"), [("grid", 400, (4, 5)), ("phys", 10, (3, 3))]
 )
 def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(
     tmp_path, env, episodes, floor
