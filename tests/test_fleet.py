@@ -217,6 +217,16 @@ def test_copies_and_pickles_continue_alike():
             assert a[4] == b[4]
 
 
+def test_a_fleet_layout_puts_its_robots_on_its_start_cells():
+    layout = ["S...S", ".#.#.", "..S..", "PP.PP"]
+    env = fleet.parallel_env(num_robots=3, layout=layout)
+    env.reset(seed=0)
+    assert env.state().reshape(3, 4)[:, :2].tolist() == [[0, 0], [0, 4], [2, 2]]
+    assert env.starts == [(0, 0), (0, 4), (2, 2)]
+    with pytest.raises(ValueError, match=r"4 robots need 4 start cells; the layout marks 3"):
+        fleet.parallel_env(num_robots=4, layout=layout)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "error", "message"),
     [

@@ -201,7 +201,7 @@ def test_start_symbol_moves_the_start():
         ([""], ValueError, "layout row 0 is empty"),
         (["...", ".."], ValueError, "row 1 has 2 cells, row 0 has 3"),
         (["..x", "..."], ValueError, r"unknown layout symbol 'x' at row 0, column 2"),
-        (["S..", "..S"], ValueError, "at most one start 'S', found 2"),
+        (["S.#", "##S"], ValueError, r"start cells \[\(1, 2\)\] cannot be reached"),
         (["#..", "..."], ValueError, r"the start cell \(0, 0\) is a shelf"),
         (["S#P", "##."], ValueError, r"package cells \[\(0, 2\)\] cannot be reached"),
         (["S#.", "#.."], ValueError, "leaves no cell for the package"),
@@ -337,3 +337,14 @@ def test_breadth_first_distances_match_a_plain_search_around_shelves():
         assert grid.optimal_steps(cell, grid.target_cells[0]) == _bfs_steps(
             grid, cell, grid.target_cells[0]
         )
+
+
+def test_a_layout_may_hold_several_starts_for_a_fleet():
+    grid = WarehouseGrid.from_layout(["S.S.", "....", "S..P"])
+    assert grid.start == (0, 0)
+    assert grid.starts == ((0, 0), (0, 2), (2, 0))
+    assert grid.target_cells == ((2, 3),)
+    plain = WarehouseGrid.from_layout(["S.S", "..."])  # no P: every reachable cell but the starts
+    assert (0, 2) not in plain.target_cells
+    assert plain.target_cells == ((0, 1), (1, 0), (1, 1), (1, 2))
+    assert WarehouseGrid(3, 3).starts == ((0, 0),)

@@ -267,7 +267,8 @@ class WarehouseGridEnv(WarehouseEnvBase):
 
     With ``layout=`` the floor is a warehouse with shelves instead: a preset
     name (``"aisles"``, ``"depot"``, ``"maze"``) or rows of text, ``.`` floor,
-    ``#`` shelf, ``P`` a cell where packages may appear, ``S`` the start (see
+    ``#`` shelf, ``P`` a cell where packages may appear, ``S`` the start (the
+    first ``S``, if a fleet layout marks several; see
     :meth:`warehouse_phys.grid.WarehouseGrid.from_layout`). The presets are
     also registered as ``warehouse-robot-<name>-v0``.
 

@@ -66,10 +66,12 @@ class WarehouseFleetEnv(ParallelEnv):
     :meth:`state` returns.
 
     ## Starting State
-    Robot 0 stands on the floor's start cell, the others on the next cells a
-    robot can reach in reading order (on a plain floor: the first cells of row
-    0, then of row 1, ...); a floor with fewer such cells than robots, or too
-    few package cells (see below), raises ``ValueError``. Each
+    On a fleet layout, one with several ``S`` cells, robot ``i`` stands on the
+    ``i``-th in reading order. Otherwise robot 0 stands on the floor's start
+    and the others on the next cells a robot can reach in reading order (on a
+    plain floor: the first cells of row 0, then of row 1, ...), so the presets
+    take fleets too. Fewer start cells than robots, or too few package cells
+    (see below), raises ``ValueError``. Each
     robot's package is drawn uniformly from the floor's package cells, never
     on a robot's cell or another robot's package, with the environment's
     generator (``reset(seed=...)``).
@@ -368,7 +370,16 @@ class WarehouseFleetEnv(ParallelEnv):
             raise ValueError(f"unknown robot {agent!r}; the robots are {self.possible_agents}")
 
     def _start_cells(self) -> list[Cell]:
-        """The floor's start, then the other cells robots can reach in reading order."""
+        """A fleet layout's ``S`` cells; else the floor's start, then the other cells robots
+        can reach in reading order."""
+        marked = self.grid.starts
+        if len(marked) > 1:
+            if len(marked) < self.num_robots:
+                raise ValueError(
+                    f"{self.num_robots} robots need {self.num_robots} start cells; the layout "
+                    f"marks {len(marked)} ('S')"
+                )
+            return list(marked[: self.num_robots])
         start = self.grid.start
         others = sorted(cell for cell in self.grid.reachable if cell != start)
         if len(others) + 1 < self.num_robots:

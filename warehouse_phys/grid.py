@@ -63,7 +63,7 @@ LAYOUT_SYMBOLS = {
     FLOOR: "floor",
     SHELF: "shelf",
     PACKAGE: "floor where packages may appear",
-    START: "the robot's start (floor)",
+    START: "a robot's start (floor); the first is the single robot's, a fleet uses all",
 }
 
 
@@ -94,6 +94,7 @@ class WarehouseGrid:
         "rows",
         "shelves",
         "start",
+        "starts",
         "target_cells",
     )
 
@@ -108,18 +109,20 @@ class WarehouseGrid:
         """A floor drawn as text: one string per row, one symbol per cell.
 
         ``.`` is floor, ``#`` a shelf, ``P`` floor on which packages may
-        appear and ``S`` the robot's start (at most one; (0, 0) without it).
-        Without ``P``, packages may appear on every floor cell the robot can
-        reach, except the start. Cells are reached by moves between free
-        neighbours; floor that cannot be reached is allowed (an office, say)
-        but never holds a package.
+        appear and ``S`` a start: the first ``S`` in reading order is the
+        robot's (``(0, 0)`` without one), and a fleet
+        (:mod:`warehouse_phys.fleet`) puts a robot on each. Without ``P``,
+        packages may appear on every floor cell the robot can reach, except
+        the starts. Cells are reached by moves between free neighbours; floor
+        that cannot be reached is allowed (an office, say) but never holds a
+        package.
 
         Raises:
             TypeError: if ``layout`` is not a sequence of strings.
             ValueError: naming the row and column, for an empty layout, rows of
-                different lengths, an unknown symbol, more than one ``S``, a
-                start on a shelf, ``P`` cells the robot cannot reach, or no
-                cell at all for a package.
+                different lengths, an unknown symbol, a start the first start
+                cannot reach, ``P`` cells the robot cannot reach, or no cell at
+                all for a package.
         """
         if isinstance(layout, str) or not isinstance(layout, Sequence):
             raise TypeError(
@@ -149,8 +152,6 @@ class WarehouseGrid:
                         f"unknown layout symbol {symbol!r} at row {r}, column {c}; known: {known}"
                     )
         starts = [Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == START]
-        if len(starts) > 1:
-            raise ValueError(f"a layout has at most one start {START!r}, found {len(starts)}")
         start = starts[0] if starts else START_CELL
         if rows[start.row][start.col] == SHELF:
             raise ValueError(f"the start cell {tuple(start)} is a shelf")
@@ -159,6 +160,12 @@ class WarehouseGrid:
         )
         grid = cls.__new__(cls)
         grid._setup(len(rows), width, shelves, start, (), layout=tuple(rows))
+        stranded = [tuple(cell) for cell in starts if cell not in grid.reachable]
+        if stranded:
+            raise ValueError(
+                f"start cells {stranded} cannot be reached from the start {tuple(start)}"
+            )
+        grid.starts = tuple(starts) or (start,)
         marked = [
             Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == PACKAGE
         ]
@@ -168,13 +175,13 @@ class WarehouseGrid:
                 raise ValueError(
                     f"package cells {unreachable} cannot be reached from the start {tuple(start)}"
                 )
-            targets = tuple(cell for cell in marked if cell != start)
+            targets = tuple(cell for cell in marked if cell not in grid.starts)
         else:
             targets = tuple(
                 Cell(r, c)
                 for r in range(len(rows))
                 for c in range(width)
-                if Cell(r, c) in grid.reachable and Cell(r, c) != start
+                if Cell(r, c) in grid.reachable and Cell(r, c) not in grid.starts
             )
         if not targets:
             raise ValueError(
@@ -200,6 +207,9 @@ class WarehouseGrid:
         self.shelves = shelves
         #: Where the robot stands after every reset.
         self.start = start
+        #: Every start cell of the layout in reading order, ``start`` first; ``(start,)``
+        #: on the empty floor. A fleet puts a robot on each.
+        self.starts = (start,)
         #: Every cell the target may be placed on, in row-major order. On the
         #: empty floor: rows 1..R-1 and columns 1..C-1, so never the start's
         #: row or column.

@@ -1,7 +1,7 @@
 """Warehouse layouts: the presets, and turning a ``layout=`` argument into a grid.
 
 A layout is text, one string per row: ``.`` floor, ``#`` shelf, ``P`` floor on
-which packages may appear, ``S`` the robot's start (see
+which packages may appear, ``S`` a start (the first is the robot's; a fleet uses all; see
 :meth:`warehouse_phys.grid.WarehouseGrid.from_layout`). Each preset is
 registered as ``warehouse-robot-<name>-v0`` (grid twin) and
 ``warehouse-robot-phys-<name>-v0`` (physics-backed), with a time limit that
