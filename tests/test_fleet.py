@@ -197,8 +197,9 @@ def test_packages_are_never_on_a_robot_or_another_robots_package():
         assert packages <= set(grid.target_cells)
 
 
-def test_copies_and_pickles_continue_alike():
-    env = fleet.parallel_env(num_robots=3, physics=True)
+@pytest.mark.parametrize("world", list(WORLDS))
+def test_copies_and_pickles_continue_alike(world):
+    env = fleet.parallel_env(num_robots=3, **WORLDS[world])
     env.reset(seed=2)
     rng = np.random.default_rng(1)
     for _ in range(10):
@@ -278,3 +279,16 @@ def test_frames_show_every_robot_in_its_colour():
     text = ansi.render()
     assert all(str(i) in text and "abc"[i] in text for i in range(3))
     assert ansi.step(dict.fromkeys(ansi.agents, WAIT))[4]["robot_0"]["refused"] is False
+
+
+def test_each_robots_package_is_uniform_over_the_cells_left_to_it():
+    from tests.test_vector import chi_square_uniform
+
+    env = fleet.parallel_env(num_robots=2)
+    targets = env.grid.target_cells  # the starts (0, 0) and (0, 1) are none of them
+    counts = dict.fromkeys(targets, 0)
+    for seed in range(3000):
+        env.reset(seed=seed)
+        counts[tuple(env.state()[2:4])] += 1  # robot_0 draws first, from every target cell
+    statistic, bound = chi_square_uniform(list(counts.values()))
+    assert statistic < bound
