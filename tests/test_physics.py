@@ -372,7 +372,7 @@ def test_check_env_on_every_kind_never_crashes_in_fresh_processes(tmp_path):
 
     script = tmp_path / "check_every_env.py"
     script.write_text(CHECK_ENV_SCRIPT)
-    for _ in range(3):  # six runs, two at a time
+    for _ in range(2):  # four runs, two at a time
         runs = [
             subprocess.Popen(
                 [sys.executable, str(script)],
