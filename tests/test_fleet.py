@@ -241,6 +241,7 @@ def test_a_fleet_layout_puts_its_robots_on_its_start_cells():
         ({"max_cycles": 0}, ValueError, "max_cycles must be at least 1"),
         ({"robot_radius": 0.7}, ValueError, "robot_radius 0.7 m must be less than half"),
         ({"render_mode": "human"}, ValueError, "render_mode must be None or one of"),
+        ({"mass": 3.0}, TypeError, r"unknown argument\(s\) 'mass'; the physical parameters"),
     ],
 )
 def test_bad_arguments_are_refused_by_name(kwargs, error, message):

@@ -20,7 +20,7 @@ from warehouse_phys.batched_physics import ACTION_DELTA_ARRAY, BatchedPhysicsWor
 from warehouse_phys.envs import make_grid
 from warehouse_phys.grid import Cell
 from warehouse_phys.layouts import suggested_time_limit
-from warehouse_phys.physics import PhysicsConfig, check_controller
+from warehouse_phys.physics import check_controller, physics_config_from
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer
 from warehouse_phys.traffic import (
     FLEET_ACTIONS,
@@ -160,7 +160,7 @@ class WarehouseFleetEnv(ParallelEnv):
             raise ValueError(f"max_cycles must be at least 1, got {max_cycles}")
         self.max_cycles = int(max_cycles)
         #: The physical parameters (checked even for the grid twin: they decide corner follows).
-        self.config = PhysicsConfig(**physical)
+        self.config = physics_config_from(physical)
         if physics:
             check_controller(self.config)
         self.corner_follows = corner_follows_are_safe(

@@ -214,6 +214,26 @@ class PhysicsConfig:
         return round(self.settle_time / self.dt)
 
 
+#: The names of :class:`PhysicsConfig`'s fields: the physical keywords of every environment.
+PHYSICS_FIELDS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(PhysicsConfig))
+
+
+def physics_config_from(keywords: dict[str, Any]) -> PhysicsConfig:
+    """The :class:`PhysicsConfig` of an environment's physical ``keywords``.
+
+    Raises:
+        TypeError: naming any keyword that is not a physical parameter, or a value
+            of the wrong type; ValueError: as :class:`PhysicsConfig` does.
+    """
+    unknown = sorted(set(keywords) - set(PHYSICS_FIELDS))
+    if unknown:
+        raise TypeError(
+            f"unknown argument(s) {', '.join(map(repr, unknown))}; the physical "
+            f"parameters are {', '.join(PHYSICS_FIELDS)}"
+        )
+    return PhysicsConfig(**keywords)
+
+
 class MoveResult(NamedTuple):
     """How a move ended: the cell read from the body, and how far it was from its centre."""
 

@@ -10,7 +10,6 @@ every robot a body in one pymunk space.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
@@ -25,7 +24,7 @@ from warehouse_phys.batched_physics import BatchedPhysicsWorld
 from warehouse_phys.envs import checked_record_path, make_grid, status_line
 from warehouse_phys.grid import Action
 from warehouse_phys.layouts import suggested_time_limit
-from warehouse_phys.physics import PhysicsConfig, check_controller
+from warehouse_phys.physics import check_controller, physics_config_from
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
 
 #: Most sub-environments in one vector environment (about 100 bytes of state each).
@@ -36,8 +35,6 @@ _ACTIONS: tuple[Action, ...] = tuple(Action)
 TARGET_DRAWS = 4096
 #: A (row, col) pair of int64 as one item, copied whole.
 _PAIR = np.dtype("V16")
-#: The keyword arguments that set the physics (the fields of PhysicsConfig).
-PHYSICS_FIELDS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(PhysicsConfig))
 
 
 class WarehouseGridVectorEnv(VectorEnv):
@@ -466,14 +463,8 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
         super().__init__(
             num_envs, grid_rows, grid_cols, layout, max_episode_steps, render_mode, cell_px
         )
-        unknown = sorted(set(physics) - set(PHYSICS_FIELDS))
-        if unknown:
-            raise TypeError(
-                f"unknown argument(s) {', '.join(map(repr, unknown))}; the physical "
-                f"parameters are {', '.join(PHYSICS_FIELDS)}"
-            )
         #: The physical parameters, checked here as the single environment checks them.
-        self.physics = PhysicsConfig(**physics)
+        self.physics = physics_config_from(physics)
         check_controller(self.physics)
         self.record_path = checked_record_path(record_path, render_mode)
         #: The world of every sub-environment's robot, built by the first reset.
