@@ -206,6 +206,7 @@ def test_rgb_array_frames_are_the_single_environments():
         ({"dt": "fast"}, TypeError, "dt must be a real number"),
         ({"record_path": 1}, TypeError, "record_path must be a bool or None"),
         ({"num_envs": 0}, ValueError, "num_envs must be 1 to"),
+        ({"num_envs": 2**16 + 1}, ValueError, "num_envs must be 1 to 65536, got 65537"),
     ],
 )
 def test_bad_arguments_are_refused_by_name(kwargs, error, message):

@@ -29,6 +29,9 @@ from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
 
 #: Most sub-environments in one vector environment (about 100 bytes of state each).
 MAX_NUM_ENVS = 2**24
+#: Most sub-environments in one physics vector environment: each floor's walls, robot
+#: and controller take about 16 KB, so the largest takes about 1 GB and builds in 11 s.
+MAX_PHYSICS_ENVS = 2**16
 
 _ACTIONS: tuple[Action, ...] = tuple(Action)
 #: Packages drawn from the generator at a time (see ``_draw_slots``).
@@ -418,8 +421,10 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     episode), each with its ``_`` mask.
 
     ## Arguments
-    - ``num_envs``, ``grid_rows``, ``grid_cols``, ``layout``, ``max_episode_steps``,
-      ``cell_px``: as in :class:`WarehouseGridVectorEnv`.
+    - ``num_envs`` (int, default 1): how many floors, 1 to :data:`MAX_PHYSICS_ENVS`
+      (65,536; each floor takes about 16 KB).
+    - ``grid_rows``, ``grid_cols``, ``layout``, ``max_episode_steps``, ``cell_px``:
+      as in :class:`WarehouseGridVectorEnv`.
     - ``render_mode`` (``None``, ``"rgb_array"`` or ``"ansi"``): ``render()``
       returns one frame per sub-environment, after the snap.
     - ``record_path`` (bool or ``None``): whether each step records every body's
@@ -460,6 +465,7 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
         record_path: bool | None = None,
         **physics: float,
     ) -> None:
+        _checked_count("num_envs", num_envs, MAX_PHYSICS_ENVS)
         super().__init__(
             num_envs, grid_rows, grid_cols, layout, max_episode_steps, render_mode, cell_px
         )
