@@ -548,14 +548,9 @@ def test_render_without_a_display_exits_1_before_training(tmp_path):
 
 # ------------------------------------------------------------------- a fleet
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    ("env", "episodes", "floor"), [("grid", 400, (4, 5)), ("phys", 10, (3, 3))]
-)
-def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(
-    tmp_path, env, episodes, floor
-):
-    result = run_cli("--robots", "3", "--env", env, "--episodes", str(episodes), "--out", "fleet",
-                     "--rows", str(floor[0]), "--cols", str(floor[1]), cwd=tmp_path)  # fmt: skip
+def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(tmp_path):
+    result = run_cli("--robots", "3", "--env", "grid", "--episodes", "400", "--out", "fleet",
+                     cwd=tmp_path)  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert "trained 3 robots sharing one table" in result.stdout
     assert "shortest paths, waiting when blocked:" in result.stdout
@@ -564,7 +559,7 @@ def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(
         "episode.gif", "learning_curve.png", "qtable.npz", "summary.json",
     ]  # fmt: skip
     q, metadata = load_q_table(folder / "qtable.npz")
-    assert q.shape == (*floor, *floor, 5)
+    assert q.shape == (4, 5, 4, 5, 5)
     assert metadata["robots"] == 3
     summary = json.loads((folder / "summary.json").read_text())
     assert summary["robots"] == 3
@@ -573,14 +568,28 @@ def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(
         assert evaluation["episodes"] == 20
         assert evaluation["delay"] == evaluation["robot_steps"] - evaluation["shortest_steps"]
     frames, _ = gif_frames(folder / "episode.gif")
-    assert frames[0].shape == (floor[0] * 64 + 24, floor[1] * 64, 3)
-    if env == "grid":
-        assert summary["evaluation"]["learned"]["delivered"] > 30  # of 60
-        again = run_cli("--eval", "fleet/qtable.npz", cwd=tmp_path)
-        assert again.returncode == 0, again.stderr
-        assert "(3 robots, warehouse-robot-v0, 4x5, 400 episodes" in again.stdout
-        learned = summary["evaluation"]["learned"]
-        assert f"{learned['delivered']}/60 packages delivered" in again.stdout
+    assert frames[0].shape == (4 * 64 + 24, 5 * 64, 3)
+    learned = summary["evaluation"]["learned"]
+    assert learned["delivered"] > 30  # of 60
+    again = run_cli("--eval", "fleet/qtable.npz", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert "(3 robots, warehouse-robot-v0, 4x5, 400 episodes" in again.stdout
+    assert f"{learned['delivered']}/60 packages delivered" in again.stdout
+
+
+def test_a_physics_fleet_run_writes_its_files(tmp_path, capsys):
+    # (the fleet's smooth GIF frames are checked in tests/test_fleet_learning.py)
+    folder = tmp_path / "fleet"
+    args = ["--robots", "2", "--env", "phys", "--rows", "2", "--cols", "3", "--episodes", "5",
+            "--max-steps", "20"]  # fmt: skip
+    assert train_cli.main([*args, "--out", str(folder), "--quiet", "--no-gif"]) == 0
+    assert capsys.readouterr().out == ""
+    assert sorted(p.name for p in folder.iterdir()) == [
+        "learning_curve.png", "qtable.npz", "summary.json",
+    ]  # fmt: skip
+    summary = json.loads((folder / "summary.json").read_text())
+    assert (summary["env_id"], summary["max_cycles"]) == ("warehouse-robot-phys-v0", 20)
+    assert load_q_table(folder / "qtable.npz")[0].shape == (2, 3, 2, 3, 5)
 
 
 @pytest.mark.parametrize(
