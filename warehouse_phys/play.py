@@ -240,11 +240,6 @@ class FleetPlaySession(PlaySession):
         self._physics = env.physics
         self._fps = 1 / env.config.dt if env.physics else float(env.metadata["render_fps"])
 
-    @property
-    def episode_over(self) -> bool:
-        """Whether every robot delivered, or the time limit ended the episode."""
-        return self.terminated or self.truncated
-
     def step(self, action: int) -> None:
         """One joint step: ``robot_0`` takes ``action``, the others their shortest paths."""
         env = self.env
