@@ -25,6 +25,7 @@ from warehouse_phys.qlearning import (
     TABLE_FORMAT,
     TABLE_FORMAT_VERSION,
     QLearningConfig,
+    TrainingResult,
     agent_rng,
     check_training_memory,
 )
@@ -34,24 +35,6 @@ from warehouse_phys.traffic import FLEET_ACTIONS, WAIT
 FleetPolicy = Callable[
     [WarehouseFleetEnv, dict[str, np.ndarray], dict[str, dict[str, Any]]], dict[str, int]
 ]
-
-
-@dataclass(frozen=True)
-class FleetTrainingResult:
-    """The shared table and one entry per episode in each record array."""
-
-    q: np.ndarray
-    config: QLearningConfig
-    #: Joint steps of each episode.
-    steps: np.ndarray
-    #: Packages delivered in each episode.
-    returns: np.ndarray
-    #: Whether every robot delivered its package in each episode.
-    reached_target: np.ndarray
-    #: Whether the time limit ended each episode with packages undelivered.
-    truncated: np.ndarray
-    #: The exploration rate each episode was played with.
-    epsilon: np.ndarray
 
 
 def new_fleet_q_table(rows: int, cols: int) -> np.ndarray:
@@ -65,7 +48,7 @@ def train_fleet(
     config: QLearningConfig | None = None,
     *,
     on_episode: Callable[[int], None] | None = None,
-) -> FleetTrainingResult:
+) -> TrainingResult:
     """Train one shared table with every robot an epsilon-greedy Q-learner.
 
     The first episode starts with ``env.reset(seed=config.seed)``, later ones
@@ -73,6 +56,10 @@ def train_fleet(
     :func:`~warehouse_phys.qlearning.agent_rng` of the seed, one draw per robot
     in robot order, so a run is reproducible. After each joint step every robot
     that acted updates the table with its own reward and next observation.
+
+    The result's records, per episode, are a fleet's: ``steps`` its joint steps,
+    ``returns`` the packages delivered, ``reached_target`` whether every robot
+    delivered and ``truncated`` whether the time limit came first.
 
     Raises:
         ValueError: if ``env`` gives global observations (the table needs the local ones).
@@ -121,7 +108,7 @@ def train_fleet(
         truncated_episodes[episode] = cut
         if on_episode is not None:
             on_episode(episode)
-    return FleetTrainingResult(q, config, steps, returns, reached, truncated_episodes, epsilons)
+    return TrainingResult(q, config, steps, returns, reached, truncated_episodes, epsilons)
 
 
 def greedy_fleet_policy(q: np.ndarray) -> FleetPolicy:

@@ -23,7 +23,6 @@ from warehouse_phys.atomic import atomic_write_text
 from warehouse_phys.fleet import WarehouseFleetEnv, parallel_env
 from warehouse_phys.fleet_learning import (
     FleetEvaluation,
-    FleetTrainingResult,
     evaluate_fleet,
     fleet_table_metadata,
     greedy_fleet_policy,
@@ -193,7 +192,7 @@ class FleetRunOutcome:
     env_id: str
     robots: int
     max_cycles: int
-    result: FleetTrainingResult
+    result: TrainingResult
     evaluation: FleetEvaluation
     baseline: FleetEvaluation
     seconds: float

@@ -32,8 +32,9 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import gymnasium as gym
 
@@ -73,6 +74,7 @@ from warehouse_phys.runs import (
 from warehouse_phys.traffic import MAX_ROBOTS
 
 PROG = "python -m warehouse_phys.train"
+Outcome = TypeVar("Outcome")
 #: Training episodes of a fleet, unless --episodes says otherwise: enough for the
 #: default floor's fleets of two to four robots to deliver every package in training.
 FLEET_EPISODES = 3000
@@ -225,28 +227,12 @@ def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
     if args.render:
         check_display()  # before training, not after it
 
-    started = time.localtime()
-    if args.out is None:
-        folder = RunFolder(_new_run_dir(kind, floor.label, args.seed, started), RUN_FILES, new=True)
-    else:
-        folder = RunFolder(args.out, RUN_FILES, overwrite=args.overwrite)
-    run.append(folder)
-    try:
-        folder.open()
-    except RunFolderError as error:
-        raise UsageError(f"--out {error}" if args.out is not None else str(error)) from None
-    finished = False
-    try:
-        progress = _progress_bar(config.episodes, env_id, disable=args.quiet)
-        try:
-            outcome = train_run(
-                folder, floor, kind, config, gif=args.gif, on_episode=lambda _: progress.update()
-            )
-        finally:
-            progress.close()
-        finished = True
-    finally:
-        folder.close(remove_if_empty=not finished)
+    folder, outcome = _in_run_folder(
+        args, run, kind, floor.label, config.episodes, env_id,
+        lambda folder, on_episode: train_run(
+            folder, floor, kind, config, gif=args.gif, on_episode=on_episode
+        ),
+    )  # fmt: skip
     result, evaluation, seconds = outcome.result, outcome.evaluation, outcome.seconds
     run_dir = folder.path
     if not args.quiet:
@@ -281,30 +267,13 @@ def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floo
         check_training_memory(grid.rows, grid.cols, config.episodes)
     except ValueError as error:
         raise UsageError(str(error)) from None
-    started = time.localtime()
     label = f"{floor.label or ''}{'-' if floor.label else ''}{robots}robots"
-    if args.out is None:
-        folder = RunFolder(_new_run_dir(kind, label, args.seed, started), RUN_FILES, new=True)
-    else:
-        folder = RunFolder(args.out, RUN_FILES, overwrite=args.overwrite)
-    run.append(folder)
-    try:
-        folder.open()
-    except RunFolderError as error:
-        raise UsageError(f"--out {error}" if args.out is not None else str(error)) from None
-    finished = False
-    try:
-        progress = _progress_bar(config.episodes, f"{robots} robots", disable=args.quiet)
-        try:
-            outcome = train_fleet_run(
-                folder, floor, kind, robots, config, gif=args.gif,
-                on_episode=lambda _: progress.update(),
-            )  # fmt: skip
-        finally:
-            progress.close()
-        finished = True
-    finally:
-        folder.close(remove_if_empty=not finished)
+    folder, outcome = _in_run_folder(
+        args, run, kind, label, config.episodes, f"{robots} robots",
+        lambda folder, on_episode: train_fleet_run(
+            folder, floor, kind, robots, config, gif=args.gif, on_episode=on_episode
+        ),
+    )  # fmt: skip
     if not args.quiet:
         result = outcome.result
         print(
@@ -318,6 +287,41 @@ def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floo
         written = [CURVE_FILE, *([GIF_FILE] if outcome.gif_written else []), SUMMARY_FILE]
         print(f"wrote {folder.path / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     return 0
+
+
+def _in_run_folder(
+    args: argparse.Namespace,
+    run: list[RunFolder],
+    kind: str,
+    label: str | None,
+    episodes: int,
+    description: str,
+    work: Callable[[RunFolder, Callable[[int], None]], Outcome],
+) -> tuple[RunFolder, Outcome]:
+    """Open the run's folder (a new one, or ``--out``), do ``work(folder, on_episode)``
+    with a progress bar over ``episodes``, and close the folder (removing it if the
+    work did not finish and wrote nothing)."""
+    if args.out is None:
+        where = _new_run_dir(kind, label, args.seed, time.localtime())
+        folder = RunFolder(where, RUN_FILES, new=True)
+    else:
+        folder = RunFolder(args.out, RUN_FILES, overwrite=args.overwrite)
+    run.append(folder)
+    try:
+        folder.open()
+    except RunFolderError as error:
+        raise UsageError(f"--out {error}" if args.out is not None else str(error)) from None
+    finished = False
+    try:
+        progress = _progress_bar(episodes, description, disable=args.quiet)
+        try:
+            outcome = work(folder, lambda _: progress.update())
+        finally:
+            progress.close()
+        finished = True
+    finally:
+        folder.close(remove_if_empty=not finished)
+    return folder, outcome
 
 
 def _advice(evaluation: Evaluation, config: QLearningConfig, max_steps: int) -> str | None:
