@@ -40,6 +40,7 @@ from warehouse_phys.cli import (
     UsageError,
     add_env_argument,
     add_floor_arguments,
+    add_robots_argument,
     bounded_int,
     floor_from_args,
 )
@@ -48,7 +49,7 @@ from warehouse_phys.fleet import WarehouseFleetEnv
 from warehouse_phys.fleet_learning import shortest_path_policy
 from warehouse_phys.grid import Action
 from warehouse_phys.render import NoDisplayError, check_display, fit_text, import_pygame
-from warehouse_phys.traffic import MAX_ROBOTS, WAIT
+from warehouse_phys.traffic import WAIT
 
 PROG = "python -m warehouse_phys.play"
 #: Pace of the window while waiting for a key [frames/s].
@@ -305,12 +306,9 @@ def build_parser() -> argparse.ArgumentParser:
         type=bounded_int(0, "a non-negative integer seed"),
         help="seed of the first episode's target (default: a new one each run)",
     )
-    parser.add_argument(
-        "--robots",
-        type=bounded_int(1, f"a number of robots from 1 to {MAX_ROBOTS}", MAX_ROBOTS),
-        default=1,
-        help="a fleet of this many robots: you drive robot_0 (red), the others take "
-        "shortest paths (default 1)",
+    add_robots_argument(
+        parser,
+        what="a fleet of this many robots: you drive robot_0 (red), the others take shortest paths",
     )
     return parser
 

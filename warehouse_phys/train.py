@@ -45,6 +45,7 @@ from warehouse_phys.cli import (
     UsageError,
     add_env_argument,
     add_floor_arguments,
+    add_robots_argument,
     bounded_int,
     floor_from_args,
 )
@@ -71,7 +72,6 @@ from warehouse_phys.runs import (
     train_fleet_run,
     train_run,
 )
-from warehouse_phys.traffic import MAX_ROBOTS
 
 PROG = "python -m warehouse_phys.train"
 Outcome = TypeVar("Outcome")
@@ -126,12 +126,10 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"seed of the environment and the agent (default {defaults.seed})",
     )
     add_floor_arguments(parser, table_note="; with --eval it must match the table")
-    parser.add_argument(
-        "--robots",
-        type=bounded_int(1, f"a number of robots from 1 to {MAX_ROBOTS}", MAX_ROBOTS),
-        default=1,
-        help="train a fleet of this many robots on one floor, sharing one table and the "
-        "traffic rule (see warehouse_phys.fleet); default 1, the single robot",
+    add_robots_argument(
+        parser,
+        what="train a fleet of this many robots on one floor, sharing one table and "
+        "the traffic rule (see warehouse_phys.fleet)",
     )
     parser.add_argument(
         "--alpha",
