@@ -22,6 +22,8 @@ Groups and references:
   the single physics environment, in robot-actions per second, at several ``num_envs``;
 - fleet: joint steps per second of a fleet (2, 8 and 16 robots, both worlds)
   against single physics-backed environment steps;
+- fleet at scale: robot-steps per second of the grid fleet from 64 to 4,096 robots
+  against the fleet of 64, and the PIBT planner's robot-steps planned per second;
 - physics: a physics step (the move loop's, against ``Space.step``), a move, a reset;
 - world model: building a big floor and suggesting time limits (no reference).
 
@@ -363,6 +365,73 @@ def fleet_figures(sizes: list[int], joint_steps: int, rounds: int) -> list[Figur
     return interleaved(candidates, rounds, reference=reference)
 
 
+def fleet_scale_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
+    """Random joint actions (WAIT included) for a lifelong grid fleet on a 128 x 128 floor,
+    robots on random distinct cells; counts robot-steps."""
+    from warehouse_phys.fleet import parallel_env
+
+    env = parallel_env(
+        num_robots=robots, grid_rows=128, grid_cols=128, on_delivery="new_package",
+        starts="random", max_cycles=10**9,
+    )  # fmt: skip
+    env.reset(seed=0)
+    names = env.possible_agents
+    joint = [
+        dict(zip(names, row, strict=True))
+        for row in np.random.default_rng(6).integers(5, size=(joint_steps, robots)).tolist()
+    ]
+
+    def run() -> float:
+        step = env.step
+        for actions in joint:
+            step(actions)
+        return len(joint) * robots
+
+    return run
+
+
+def planner_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
+    """The PIBT planner's plans alone (no env step between them: the same situation
+    planned again) on the ``warehouse`` preset, lifelong; counts robot-steps planned."""
+    from warehouse_phys.fleet import parallel_env
+    from warehouse_phys.planning import pibt_policy
+
+    env = parallel_env(num_robots=robots, layout="warehouse", on_delivery="new_package")
+    observations, infos = env.reset(seed=0)
+    policy = pibt_policy(seed=0)
+    actions = policy(env, observations, infos)  # builds the distance maps
+    env.step(actions)
+
+    def run() -> float:
+        for _ in range(joint_steps):
+            policy(env, observations, infos)
+        return joint_steps * robots
+
+    return run
+
+
+def fleet_scale_figures(sizes: list[int], robot_steps: int, rounds: int) -> list[Figure]:
+    """Robot-steps per second of the grid fleet as it grows, against the fleet of the
+    smallest size: the cost per robot should not grow with the fleet."""
+    candidates = []
+    for n in sizes:
+        candidates.append(
+            Candidate(
+                f"grid fleet of {n:,}",
+                "robot-steps/s",
+                fleet_scale_stepper(n, max(1, robot_steps // n)),
+                # The cost per robot within 1.5x of the smallest fleet's, up to 4,096.
+                target_ratio=1 / 1.5 if n != sizes[0] else None,
+                target_value=1e6 if n == 1024 else None,
+            )
+        )
+    candidates.append(
+        Candidate("PIBT plan, 192 robots on warehouse", "robot-steps/s",
+                  planner_stepper(192, max(1, robot_steps // 192 // 4)))
+    )  # fmt: skip
+    return interleaved(candidates, rounds, reference=f"grid fleet of {sizes[0]:,}")
+
+
 # ------------------------------------------------------------------ physics
 def physics_figures(rounds: int) -> list[Figure]:
     config = PhysicsConfig()
@@ -526,6 +595,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         "physics_vector_robot_actions": 400 if args.quick else 20_000,
         "fleet_sizes": [2, 8] if args.quick else [2, 8, 16],
         "fleet_joint_steps": 50 if args.quick else 1000,
+        "fleet_scale_sizes": [64, 256] if args.quick else [64, 256, 1024, 4096],
+        "fleet_scale_robot_steps": 2_000 if args.quick else 200_000,
     }
     sections = {
         f"stepping ({budget['actions']:,} random actions a round, resets included)": (
@@ -545,6 +616,11 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         ),
         "fleet (random joint actions on an 8 x 10 floor, lifelong)": fleet_figures(
             budget["fleet_sizes"], budget["fleet_joint_steps"], rounds
+        ),
+        "fleet at scale (grid twin, random joint actions, lifelong, 128 x 128)": (
+            fleet_scale_figures(
+                budget["fleet_scale_sizes"], budget["fleet_scale_robot_steps"], rounds
+            )
         ),
         "physics (default settings)": physics_figures(rounds),
         "world model": world_model_figures(rounds),
