@@ -30,7 +30,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
@@ -105,9 +104,8 @@ def throughput_table(
                     "throughput": statistics.fmean(values),
                     "per_seed": values,
                     "refused": sum(run["refused"] for run in runs),
-                    "plan_ms_per_step": 1000 * statistics.median(
-                        t for run in runs for t in run["plan_s"]
-                    ),
+                    "plan_ms_per_step": 1000
+                    * statistics.median(t for run in runs for t in run["plan_s"]),
                 }
             )
             row = rows[-1]
