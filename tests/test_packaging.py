@@ -5,6 +5,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tomllib
 import zipfile
 from pathlib import Path
 
@@ -19,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
     source = tmp_path / "src"
     source.mkdir()
-    for name in ("pyproject.toml", "README.md"):
+    for name in ("pyproject.toml", "README.md", "LICENSE"):
         shutil.copy(ROOT / name, source / name)
     for folder in ("warehouse_phys", "sprites"):
         shutil.copytree(
@@ -35,6 +36,7 @@ def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
     names = set(zipfile.ZipFile(wheel).namelist())
     for sprite in SPRITE_NAMES:
         assert f"warehouse_phys/sprites/{sprite}" in names
+    assert any(name.endswith(".dist-info/licenses/LICENSE") for name in names)
 
     site = tmp_path / "site"
     subprocess.run(
@@ -71,3 +73,18 @@ def test_code_is_ruff_clean(check):
         [sys.executable, "-m", "ruff", *check, "."], cwd=ROOT, capture_output=True, text=True
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_metadata_a_package_index_expects():
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert project["license"] == "MIT"
+    assert project["license-files"] == ["LICENSE"]
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
+    assert project["authors"]
+    assert all(author.get("name") for author in project["authors"])
+    assert {"Homepage", "Repository", "Issues"} <= set(project["urls"])
+    assert project["requires-python"] == ">=3.11"
+    versions = {c for c in project["classifiers"] if c.startswith("Programming Language :: Python")}
+    assert "Programming Language :: Python :: 3.11" in versions
+    assert not any(c.startswith("License ::") for c in project["classifiers"])  # SPDX instead
+    assert "sweeps/" in (ROOT / ".gitignore").read_text().splitlines()
