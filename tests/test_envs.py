@@ -5,8 +5,11 @@ the physics-backed environment; tests of the physics alone are in
 ``test_envs_physics.py``.
 """
 
+import copy
 import json
 import math
+import os
+import pickle
 import warnings
 
 import gymnasium as gym
@@ -14,6 +17,8 @@ import numpy as np
 import pytest
 from gymnasium.error import ResetNeeded
 from gymnasium.utils.env_checker import check_env
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import warehouse_phys
 from warehouse_phys import Action, WarehouseGridEnv, WarehousePhysicsEnv
@@ -637,3 +642,179 @@ def test_the_window_is_titled_with_the_environment_id(env_id):
         assert pygame.display.get_caption()[0] == f"warehouse_phys: {env_id}"
     finally:
         env.close()
+
+
+# ------------------------------------------------- refused calls change nothing
+SINGLE_BAD_CALLS = [
+    ("reset", {"seed": -1}),
+    ("reset", {"seed": 1.5}),
+    ("reset", {"seed": "0"}),
+    ("reset", {"seed": 5, "options": {"goal": (1, 1)}}),
+    ("reset", {"seed": 5, "options": {"target": {1: 1, 2: 2}}}),
+    ("reset", {"options": {"target": {1, 2}}}),
+    ("reset", {"options": {"target": (np.timedelta64(1), 1)}}),
+    ("reset", {"options": {"target": (0, 3)}}),
+    ("reset", {"options": 5}),
+    ("step", 4),
+    ("step", -1),
+    ("step", 1.5),
+    ("step", None),
+    ("step", True),
+    ("step", "1"),
+    ("step", np.timedelta64(1)),
+    ("step", np.ma.masked),
+    ("step", np.ma.masked_array(1, mask=True)),
+    ("step", np.array([1, 2])),
+]
+VECTOR_BAD_CALLS = [
+    ("reset", {"seed": -1}),
+    ("reset", {"seed": 2.5}),
+    ("reset", {"seed": 5, "options": {"goal": 1}}),
+    ("reset", {"options": {"reset_mask": [True, False, True]}}),
+    ("reset", {"seed": 5, "options": {"reset_mask": np.zeros(3, dtype=bool)}}),
+    ("step", np.array([0, 4, 1])),
+    ("step", np.array([0, -1, 1], dtype=">i8")),
+    ("step", [1, [2, 3], 2]),
+    ("step", [1, np.ma.masked, 2]),
+    ("step", np.ma.masked_array([1, 2, 3], mask=[0, 0, 1])),
+    ("step", np.array([1, 2, 3], dtype="m8")),
+    ("step", np.ones(3)),
+    ("step", np.ones(4, dtype=np.int64)),
+]
+ALL_ENVS = {
+    "grid": (lambda: gym.make(ENV_ID).unwrapped, SINGLE_BAD_CALLS),
+    "phys": (lambda: gym.make(warehouse_phys.PHYSICS_ENV_ID).unwrapped, SINGLE_BAD_CALLS),
+    "vector grid": (lambda: gym.make_vec(ENV_ID, num_envs=3), VECTOR_BAD_CALLS),
+    "vector phys": (
+        lambda: gym.make_vec(warehouse_phys.PHYSICS_ENV_ID, num_envs=3),
+        VECTOR_BAD_CALLS,
+    ),
+}
+
+
+def _state(env) -> tuple:
+    """Everything a refused call must leave alone: the whole object, its observation and
+    its generator."""
+    obs = env._observations() if hasattr(env, "num_envs") else env._get_obs()
+    return pickle.dumps(env), obs.tolist(), env.np_random.bit_generator.state
+
+
+@pytest.mark.parametrize("name", list(ALL_ENVS))
+@given(data=st.data())
+@settings(max_examples=12, deadline=None)
+def test_a_refused_call_changes_nothing(name, data):
+    make, bad_calls = ALL_ENVS[name]
+    env = make()
+    vector = hasattr(env, "num_envs")
+    env.reset(seed=data.draw(st.integers(0, 2**32 - 1), label="seed"))
+    actions = st.lists(st.integers(0, 3), min_size=3, max_size=3) if vector else st.integers(0, 3)
+    for action in data.draw(st.lists(actions, max_size=25), label="history"):
+        env.step(np.array(action) if vector else action)
+    twin = copy.deepcopy(env)
+    before = _state(env)
+    for method, argument in bad_calls:
+        call = getattr(env, method)
+        with pytest.raises((TypeError, ValueError, gym.error.Error)):
+            call(**argument) if method == "reset" else call(argument)
+        assert _state(env) == before, (method, argument)
+    for action in data.draw(st.lists(actions, min_size=1, max_size=5), label="after"):
+        action = np.array(action) if vector else action
+        for got, expected in zip(env.step(action), twin.step(action), strict=True):
+            if isinstance(got, dict):
+                assert got.keys() == expected.keys()
+                got, expected = list(got.values()), list(expected.values())
+            np.testing.assert_equal(got, expected)
+
+
+# ------------------------------------------------------------------ no display
+HEADLESS_CHECK = """
+import warnings
+import gymnasium as gym
+from gymnasium.utils.env_checker import check_env
+import warehouse_phys
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    check_env(gym.make("warehouse-robot-phys-v0").unwrapped)  # makes every render mode
+    check_env(gym.make("warehouse-robot-v0").unwrapped)
+    env = gym.make("warehouse-robot-v0", render_mode="human")
+    env.reset(seed=0)
+    env.step(1)
+    env.close()
+import os, pygame
+print(os.environ["SDL_VIDEODRIVER"], pygame.display.get_init())
+for warning in caught:
+    print(warning.category.__name__, warning.message)
+"""
+
+
+@pytest.mark.slow
+def test_human_mode_without_a_display_warns_once_and_draws_offscreen(run_python):
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")}  # fmt: skip
+    lines = run_python(HEADLESS_CHECK, env=env).splitlines()
+    assert lines[0] == "dummy False"
+    assert len(lines) == 2
+    assert lines[1].startswith("UserWarning render_mode='human' found no display")
+
+
+def test_human_mode_leaves_a_chosen_driver_alone(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gym.make(ENV_ID, render_mode="human").close()
+
+
+# ------------------------------------------------------- odd values, named refusals
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"grid_rows": np.timedelta64(4)}, TypeError,
+         r"^grid_rows must be an integer, got np.timedelta64\(4\) \(timedelta64\)"),
+        ({"grid_cols": np.timedelta64(5), "layout": "maze"}, TypeError,
+         "^grid_cols must be an integer"),
+        ({"cell_px": np.timedelta64(64)}, TypeError, "^cell_px must be an integer"),
+        ({"render_mode": 1}, TypeError,
+         r"^render_mode must be None or one of \['human', 'rgb_array', 'ansi'\], got 1 \(int\)"),
+        ({"render_mode": ["human"]}, TypeError, "^render_mode must be None or one of"),
+    ],
+)  # fmt: skip
+def test_odd_arguments_are_refused_in_one_line_by_name(env_id, kwargs, error, message):
+    with pytest.raises(error, match=message) as caught:
+        gym.make(env_id, **kwargs)
+    assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"target": {1: 1, 2: 2}}, r"options\['target'\] must be a \(row, col\) pair, .*\(dict"),
+        ({"target": {1, 2}}, r"options\['target'\] must be a \(row, col\) pair, .*\(set"),
+        ({"start": {"row": 1, "col": 1}}, r"options\['start'\] must be a \(row, col\) pair"),
+    ],
+)
+def test_unordered_cells_are_refused(env_cls, options, message):
+    env = env_cls()
+    with pytest.raises(TypeError, match=message):
+        env.reset(seed=0, options=options)
+    with pytest.raises(ValueError, match=r"options\['target'\] must hold two integers"):
+        env.reset(seed=0, options={"target": (np.timedelta64(1), 1)})
+
+
+@pytest.mark.parametrize(
+    "action", [np.ma.masked, np.ma.masked_array(2, mask=True)], ids=["masked", "masked array"]
+)
+def test_a_masked_action_is_refused_in_one_line(env_id, action):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"^invalid action: a masked value \(Masked") as caught:
+        env.step(action)
+    assert "\n" not in str(caught.value)
+    assert env.step(np.ma.masked_array(2, mask=False))[0][:2].tolist() == [0, 1]  # unmasked
+
+
+def test_a_big_endian_action_is_an_action(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    assert env.step(np.array(2, dtype=">i8"))[0][:2].tolist() == [0, 1]
+    assert env.step(np.array(1, dtype=">u2"))[0][:2].tolist() == [1, 1]

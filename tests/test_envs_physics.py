@@ -455,3 +455,8 @@ def test_an_episode_after_any_history_replays_bit_for_bit_in_a_new_world(
         assert np.array_equal(a[0], b[0])
         assert a[4] == b[4]
         assert used.last_move_path.tobytes() == fresh.last_move_path.tobytes()
+
+
+def test_a_duration_is_not_a_physical_setting():
+    with pytest.raises(TypeError, match=r"^dt must be a real number, got np.timedelta64\(1\)"):
+        gym.make(PHYS_ID, dt=np.timedelta64(1))

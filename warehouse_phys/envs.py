@@ -11,7 +11,10 @@ environment drives a pymunk body there and reads the cell back from it.
 from __future__ import annotations
 
 import math
+import os
+import warnings
 from collections.abc import Mapping, Sequence
+from collections.abc import Set as AbstractSet
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -22,13 +25,37 @@ from gymnasium.error import ResetNeeded
 from warehouse_phys.grid import Action, Cell, WarehouseGrid, check_size, move_table
 from warehouse_phys.layouts import resolve_layout
 from warehouse_phys.physics import CAN_RESTART, PhysicsConfig, PhysicsWorld, check_controller
-from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
+from warehouse_phys.render import (
+    DEFAULT_CELL_PX,
+    NoDisplayError,
+    WarehouseRenderer,
+    ansi_frame,
+    check_display,
+)
 
 #: The actions in value order, so that ``_ACTIONS[i]`` is ``Action(i)`` without an enum lookup.
 _ACTIONS: tuple[Action, ...] = tuple(Action)
 _ACTION_RANGE = ", ".join(f"{a.name}={a.value}" for a in Action)
 _RESET_OPTIONS = ("start", "target")
 _PHYSICS_DEFAULTS = PhysicsConfig()
+
+
+class RenderModes(list):
+    """The ``render_modes`` of a ``metadata``: a list of names that refuses to look up a non-name.
+
+    ``gym.make(id, render_mode=1)`` asks ``1 in metadata["render_modes"]``
+    before it builds the environment; with a plain list it then fails on
+    ``1.endswith``. This list answers such a question with a ``TypeError``
+    naming ``render_mode``, as ``1 in "abc"`` does.
+    """
+
+    def __contains__(self, mode: object) -> bool:
+        if not isinstance(mode, str):
+            raise TypeError(
+                f"render_mode must be None or one of {list(self)}, got {mode!r} "
+                f"({type(mode).__name__})"
+            )
+        return super().__contains__(mode)
 
 
 class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
@@ -39,7 +66,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
     """
 
     metadata: dict[str, Any] = {  # noqa: RUF012 - Gymnasium reads and copies this class attribute
-        "render_modes": ["human", "rgb_array", "ansi"],
+        "render_modes": RenderModes(["human", "rgb_array", "ansi"]),
         "render_fps": 4,
     }
 
@@ -51,6 +78,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         cell_px: int = DEFAULT_CELL_PX,
         layout: str | Sequence[str] | None = None,
     ) -> None:
+        refuse_durations(cell_px=cell_px)
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.grid_rows = self.grid.rows
         self.grid_cols = self.grid.cols
@@ -81,6 +109,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         )
         if render_mode in ("rgb_array", "human"):
             self._renderer.check_frame_size()
+        if render_mode == "human":
+            draw_offscreen_without_display()
 
     def step(
         self, action: int | np.integer
@@ -237,15 +267,18 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         return start, target
 
     def _checked_cell(self, name: str, value: Any) -> Cell:
+        if isinstance(value, (Mapping, AbstractSet)):  # unpacking would read keys in any order
+            raise TypeError(
+                f"options[{name!r}] must be a (row, col) pair, got {value!r} "
+                f"({type(value).__name__}, which has no order)"
+            )
         try:
             row, col = value
         except (TypeError, ValueError):
             raise ValueError(
                 f"options[{name!r}] must be a (row, col) pair, got {value!r}"
             ) from None
-        if not all(
-            isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (row, col)
-        ):
+        if not all(_is_integer(v) for v in (row, col)):
             raise ValueError(f"options[{name!r}] must hold two integers, got {value!r}")
         cell = Cell(int(row), int(col))
         if not self.grid.contains(cell):
@@ -284,9 +317,10 @@ class WarehouseGridEnv(WarehouseEnvBase):
 
     The names are :class:`warehouse_phys.Action`. A move off the floor or into
     a shelf leaves the robot where it is; it still counts as a step. Python ints, numpy
-    integers and 0-d integer arrays are accepted; anything else raises
-    ``TypeError``, an integer outside 0..3 raises ``ValueError``, and the
-    environment is unchanged by either.
+    integers and 0-d integer arrays (in either byte order) are accepted; anything
+    else (a bool, a float, a ``timedelta64``) raises ``TypeError``, an integer
+    outside 0..3 or a masked value raises ``ValueError``, and the environment
+    is unchanged by either.
 
     ## Observation Space
     ``MultiDiscrete([R, C, R, C])`` with dtype ``int64``: a fresh array
@@ -348,7 +382,9 @@ class WarehouseGridEnv(WarehouseEnvBase):
       cell is framed in green and the status line says "Delivered!". A frame
       larger than ``warehouse_phys.render.MAX_FRAME_PIXELS`` is refused when
       the environment is built; lower ``cell_px``. With no display, ``"human"``
-      raises :class:`~warehouse_phys.render.NoDisplayError`.
+      warns once and draws offscreen, as Gymnasium's own environments do (see
+      :func:`draw_offscreen_without_display`). A ``render_mode`` that is not
+      a string raises ``TypeError``, in ``gym.make`` too.
     - ``cell_px`` (int, default 64): side of one cell in rendered frames, in pixels.
 
     ```python
@@ -608,6 +644,7 @@ def make_grid(
     grid_rows: int | None, grid_cols: int | None, layout: str | Sequence[str] | None
 ) -> WarehouseGrid:
     """The empty ``grid_rows`` x ``grid_cols`` floor (4 x 5 by default), or the layout's."""
+    refuse_durations(grid_rows=grid_rows, grid_cols=grid_cols)
     if layout is None:
         return WarehouseGrid(
             4 if grid_rows is None else grid_rows, 5 if grid_cols is None else grid_cols
@@ -630,10 +667,14 @@ def _checked_action(action: object) -> Action:
     kind = type(action)
     if (kind is int or kind is np.int64) and 0 <= action < len(_ACTIONS):  # the usual cases
         return _ACTIONS[action]
-    is_integer = (
-        isinstance(action, (int, np.integer))
-        and not isinstance(action, (bool, np.timedelta64))  # numpy counts durations as integers
-    ) or (isinstance(action, np.ndarray) and action.ndim == 0 and action.dtype.kind in "iu")
+    if np.ma.is_masked(action):  # np.ma.masked, or a masked array with its value masked
+        raise ValueError(
+            f"invalid action: a masked value ({type(action).__name__}) is no action; "
+            f"expected an integer in 0..3 ({_ACTION_RANGE})"
+        )
+    is_integer = _is_integer(action) or (
+        isinstance(action, np.ndarray) and action.ndim == 0 and action.dtype.kind in "iu"
+    )
     if not is_integer:
         raise TypeError(
             f"invalid action {action!r} of type {type(action).__name__}: "
@@ -645,3 +686,47 @@ def _checked_action(action: object) -> Action:
             f"invalid action {action!r}: expected an integer in 0..3 ({_ACTION_RANGE})"
         )
     return _ACTIONS[value]
+
+
+def refuse_durations(**arguments: object) -> None:
+    """Refuse a ``numpy.timedelta64`` given as a count, which numpy counts as an integer.
+
+    Raises:
+        TypeError: naming the first such argument.
+    """
+    for name, value in arguments.items():
+        if isinstance(value, np.timedelta64):
+            raise TypeError(f"{name} must be an integer, got {value!r} (timedelta64)")
+
+
+def _is_integer(value: object) -> bool:
+    """Whether ``value`` is a Python or numpy integer, but neither a bool nor a duration
+    (numpy counts ``timedelta64`` as an integer)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.timedelta64))
+
+
+def draw_offscreen_without_display() -> None:
+    """Let ``"human"`` rendering draw offscreen, with a warning, where there is no display.
+
+    Gymnasium's own environments (CartPole, say) render ``"human"`` without a
+    display, and its ``check_env`` makes every render mode, so a headless
+    check or test must not fail here. Where :func:`~warehouse_phys.render.check_display`
+    finds no display, this selects SDL's ``"dummy"`` video driver (frames are
+    drawn, shown nowhere) and warns; the driver is then set for the whole
+    process, so it warns once. It is set before pygame's display starts, and
+    changes nothing in a display already started (which SDL, finding no
+    display, started offscreen). A driver already chosen in ``SDL_VIDEODRIVER``
+    is left alone, and ``python -m warehouse_phys.play`` still refuses to run
+    without a display.
+    """
+    try:
+        check_display()
+    except NoDisplayError:
+        os.environ["SDL_VIDEODRIVER"] = "dummy"
+        warnings.warn(
+            "render_mode='human' found no display (DISPLAY and WAYLAND_DISPLAY are unset): "
+            "frames are drawn offscreen with SDL_VIDEODRIVER=dummy and shown nowhere; to see "
+            "them, run in a desktop session, forward one with `ssh -X` or use `xvfb-run`",
+            UserWarning,
+            stacklevel=2,
+        )

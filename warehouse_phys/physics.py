@@ -148,9 +148,9 @@ class PhysicsConfig:
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
-            if isinstance(value, (bool, np.bool_)) or not isinstance(
+            if isinstance(value, (bool, np.bool_, np.timedelta64)) or not isinstance(
                 value, (int, float, np.integer, np.floating)
-            ):
+            ):  # numpy counts durations as integers, without a unit we could read
                 raise TypeError(
                     f"{field.name} must be a real number, got {value!r} ({type(value).__name__})"
                 )

@@ -21,7 +21,7 @@ from gymnasium.vector.utils import batch_space
 
 from warehouse_phys.batched import BatchedRules
 from warehouse_phys.batched_physics import BatchedPhysicsWorld
-from warehouse_phys.envs import checked_record_path, make_grid, status_line
+from warehouse_phys.envs import checked_record_path, make_grid, refuse_durations, status_line
 from warehouse_phys.grid import Action
 from warehouse_phys.layouts import suggested_time_limit
 from warehouse_phys.physics import check_controller, physics_config_from
@@ -128,6 +128,7 @@ class WarehouseGridVectorEnv(VectorEnv):
         cell_px: int = DEFAULT_CELL_PX,
     ) -> None:
         self.num_envs = _checked_count("num_envs", num_envs, MAX_NUM_ENVS)
+        refuse_durations(cell_px=cell_px)
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.grid_rows, self.grid_cols = self.grid.rows, self.grid.cols
         if max_episode_steps is None:
@@ -221,11 +222,11 @@ class WarehouseGridVectorEnv(VectorEnv):
         mask = self._checked_reset_mask(options)
         if mask is not None and self._pos4 is None:
             raise ResetNeeded("call reset() without a reset_mask first")
-        super().reset(seed=seed)
+        super().reset(seed=seed)  # refuses a bad seed before anything has changed
         if seed is not None or mask is None:
             self._draws, self._drawn = np.empty(0, dtype=np.int64), 0  # a fresh stream
         if mask is None:
-            self._pos4 = np.zeros(self.num_envs, dtype=np.int64)
+            self._start_all()
             mask = np.ones(self.num_envs, dtype=bool)
         self._restart(np.flatnonzero(mask), self._pos4)
         self._ended = self._ended[~mask[self._ended]]  # the others still restart next step
@@ -263,6 +264,11 @@ class WarehouseGridVectorEnv(VectorEnv):
         self._renderer.close()
 
     # ------------------------------------------------------------------ helpers
+    def _start_all(self) -> None:
+        """Called by a reset of every floor once its arguments are accepted, before the
+        robots are placed."""
+        self._pos4 = np.zeros(self.num_envs, dtype=np.int64)
+
     def _move_robots(self, actions: np.ndarray) -> np.ndarray:
         """Where each robot ends after its action (``(N,)`` int64 actions), as 4 * its cell."""
         return self._moves4[self._pos4 + actions]
@@ -311,7 +317,7 @@ class WarehouseGridVectorEnv(VectorEnv):
 
     def _checked_actions(self, actions: Any) -> np.ndarray:
         if type(actions) is not np.ndarray:
-            actions = np.asarray(actions)
+            actions = self._actions_array(actions)
         if actions.shape != (self.num_envs,):
             raise ValueError(
                 f"actions must have shape ({self.num_envs},), one per sub-environment, "
@@ -322,6 +328,8 @@ class WarehouseGridVectorEnv(VectorEnv):
                 f"actions must be integers in 0..3 (LEFT=0, DOWN=1, RIGHT=2, UP=3), "
                 f"got dtype {actions.dtype}"
             )
+        if not actions.dtype.isnative:  # big-endian on most machines: read as native numbers
+            actions = actions.astype(actions.dtype.newbyteorder("="))
         if actions.view(f"u{actions.itemsize}").max() > 3:  # negatives look huge unsigned
             bad = np.flatnonzero((actions < 0) | (actions > 3))
             raise ValueError(
@@ -332,6 +340,27 @@ class WarehouseGridVectorEnv(VectorEnv):
         # int64 indexes the move table whatever the caller's integers (uint64 + int64
         # would make floats); no copy when they are int64 already.
         return actions.astype(np.int64, copy=False)
+
+    def _actions_array(self, actions: Any) -> np.ndarray:
+        """``actions`` (a list, a masked array, ...) as a plain array, or a one-line error."""
+        masked = None
+        if isinstance(actions, np.ma.MaskedArray):
+            masked, actions = np.ma.getmaskarray(actions), actions.data
+        elif isinstance(actions, (list, tuple)):  # numpy would make nan of np.ma.masked
+            masked = np.array([item is np.ma.masked for item in actions], dtype=bool)
+        if masked is not None and masked.any():
+            raise ValueError(
+                f"actions must be integers in 0..3 (LEFT=0, DOWN=1, RIGHT=2, UP=3): "
+                f"sub-environment {np.flatnonzero(masked)[0]}'s is masked"
+            )
+        try:
+            return np.asarray(actions)
+        except (TypeError, ValueError) as error:  # a ragged list, say
+            raise ValueError(
+                f"actions must be an array of shape ({self.num_envs},) of integers in 0..3; "
+                f"numpy cannot make an array of this {type(actions).__name__}: "
+                f"{str(error).splitlines()[0]}"
+            ) from None
 
     def _checked_reset_mask(self, options: dict[str, Any] | None) -> np.ndarray | None:
         if options is None:
@@ -361,7 +390,7 @@ class WarehouseGridVectorEnv(VectorEnv):
 
 
 def _checked_count(name: str, value: object, maximum: int | None) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+    if isinstance(value, (bool, np.timedelta64)) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
     if value < 1 or (maximum is not None and value > maximum):
         limit = f"1 to {maximum}" if maximum is not None else "at least 1"
@@ -482,8 +511,6 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start new episodes on every floor (in a newly built world), or on those
         ``options["reset_mask"]`` marks (each on a newly built robot)."""
-        if self._checked_reset_mask(options) is None:  # checked first: bad options change nothing
-            self.world = None
         return super().reset(seed=seed, options=options)
 
     @property
@@ -508,6 +535,10 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
         return self.world.last_paths
 
     # ------------------------------------------------------------------ hooks
+    def _start_all(self) -> None:
+        super()._start_all()
+        self.world = None  # every floor restarts: _restart builds a new world
+
     def _move_robots(self, actions: np.ndarray) -> np.ndarray:
         cells, self._snap_error = self.world.move_by(actions)
         return (cells[:, 0] * self.grid_cols + cells[:, 1]) * 4
