@@ -251,13 +251,21 @@ def test_bad_reset_options_are_refused_and_change_nothing(options, error, messag
         (np.array([-1, -2]), ValueError, r"sub-environment 0 got -1 \(and 1 more\)"),
         (np.array([2, 300], dtype=np.uint16), ValueError, "sub-environment 1 got 300"),
         (5, ValueError, r"actions must have shape \(2,\)"),
+        (np.array([0, 4], dtype=">i8"), ValueError, "sub-environment 1 got 4"),
+        (np.array([1, 2], dtype="m8"), TypeError, "got dtype timedelta64"),
+        ([1, [2, 3]], ValueError,
+         r"^actions must be an array of shape \(2,\) of integers in 0..3; numpy cannot make an "
+         r"array of this list: setting an array element with a sequence"),
+        ([1, np.ma.masked], ValueError, "sub-environment 1's is masked"),
+        (np.ma.masked_array([1, 2], mask=[1, 0]), ValueError, "sub-environment 0's is masked"),
     ],
 )  # fmt: skip
 def test_invalid_actions_are_refused_and_change_nothing(actions, error, message):
     envs = gym.make_vec(GRID_ID, num_envs=2)
     obs, _ = envs.reset(seed=0)
-    with pytest.raises(error, match=message):
+    with pytest.raises(error, match=message) as caught:
         envs.step(actions)
+    assert "\n" not in str(caught.value)
     again, *_ = envs.step(np.array([3, 0]))  # into the walls: nothing moves
     assert np.array_equal(again, obs)
     assert envs.unwrapped._steps.tolist() == [1, 1]
@@ -277,6 +285,12 @@ def test_stepping_before_reset_is_refused():
         ({"num_envs": 2, "max_episode_steps": 0}, ValueError, "max_episode_steps must be at"),
         ({"num_envs": 2, "render_mode": "human"}, ValueError, "render_mode must be None or one of"),
         ({"num_envs": 2, "grid_rows": 600}, ValueError, "grid_rows must be at most 512"),
+        ({"num_envs": np.timedelta64(2)}, TypeError, "num_envs must be an integer"),
+        ({"num_envs": 2, "max_episode_steps": np.timedelta64(9)}, TypeError,
+         "max_episode_steps must be an integer"),
+        ({"num_envs": 2, "grid_cols": np.timedelta64(3)}, TypeError,
+         "grid_cols must be an integer"),
+        ({"num_envs": 2, "cell_px": np.timedelta64(3)}, TypeError, "cell_px must be an integer"),
     ],
 )  # fmt: skip
 def test_bad_arguments_are_refused_by_name(kwargs, error, message):
@@ -330,6 +344,14 @@ def test_returned_arrays_are_never_reused():
 
 @pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int32, np.uint32, np.uint64, np.int64])
 def test_actions_of_any_integer_dtype_move_alike(dtype):
+    envs = gym.make_vec(GRID_ID, num_envs=3)
+    envs.reset(seed=0)
+    obs, *_ = envs.step(np.array([2, 1, 0], dtype=dtype))
+    assert obs[:, :2].tolist() == [[0, 1], [1, 0], [0, 0]]
+
+
+@pytest.mark.parametrize("dtype", [">i8", ">u2", ">i4"])
+def test_big_endian_actions_move_as_native_ones(dtype):
     envs = gym.make_vec(GRID_ID, num_envs=3)
     envs.reset(seed=0)
     obs, *_ = envs.step(np.array([2, 1, 0], dtype=dtype))

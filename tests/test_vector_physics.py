@@ -223,3 +223,23 @@ def test_paths_need_recording_and_a_reset():
     plain.reset(seed=0)
     with pytest.raises(RuntimeError, match="record_path=True"):
         plain.last_move_paths  # noqa: B018
+
+
+def test_big_endian_actions_move_as_native_ones():
+    native, swapped = (gym.make_vec(PHYS_ID, num_envs=3) for _ in range(2))
+    native.reset(seed=4)
+    swapped.reset(seed=4)
+    for actions in ([2, 1, 0], [1, 2, 3], [2, 2, 1]):
+        expected = native.step(np.array(actions))
+        got = swapped.step(np.array(actions, dtype=">i8"))
+        for a, b in zip(got, expected, strict=True):
+            np.testing.assert_equal(a, b)
+
+
+def test_a_refused_seed_keeps_the_world():
+    envs = gym.make_vec(PHYS_ID, num_envs=2)
+    envs.reset(seed=0)
+    with pytest.raises(gym.error.Error, match="Seed must be greater or equal to zero"):
+        envs.reset(seed=-1)
+    assert envs.unwrapped.world is not None
+    envs.step(np.array([2, 1]))  # the world it had

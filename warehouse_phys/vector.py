@@ -54,9 +54,10 @@ class WarehouseGridVectorEnv(VectorEnv):
     ## Action Space
     ``MultiDiscrete([4] * num_envs)`` (``single_action_space`` is ``Discrete(4)``):
     LEFT=0, DOWN=1, RIGHT=2, UP=3. ``step`` takes an integer array of shape
-    ``(num_envs,)`` (or anything ``numpy.asarray`` makes one of); another shape
-    or dtype raises ``TypeError``/``ValueError``, and so does a value outside
-    0..3, naming it; a refused step changes nothing.
+    ``(num_envs,)`` in either byte order (or anything ``numpy.asarray`` makes one
+    of); another shape or dtype raises ``TypeError``/``ValueError``, and so does a
+    value outside 0..3 or a masked one, naming it; a refused step or reset
+    (a bad seed or option) changes nothing.
 
     ## Observation Space
     ``MultiDiscrete`` of shape ``(num_envs, 4)``, int64: row ``i`` is sub-environment
