@@ -2,8 +2,11 @@
 
 import csv
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 
 import gymnasium as gym
 import pytest
@@ -109,6 +112,11 @@ def test_without_ray_the_sweep_exits_2_with_the_install_line(monkeypatch, capsys
         (["--env", "mujoco"], "argument --env: invalid choice: 'mujoco'"),
         (["--layout", "office"], "--layout 'office' is neither a preset"),
         (["--rows", "300", "--cols", "300"], "a 300x300 floor needs a Q-table of 241.4 GiB"),
+        (["--seeds", "0-" + "9" * 30], "argument --seeds: expected at most 10000 seeds, got"),
+        (
+            ["--cpus-per-trial", "64"],
+            "--cpus-per-trial 64: this machine has 2 CPUs, so no trial could ever start",
+        ),
     ],
 )
 def test_bad_arguments_exit_2_in_one_line_before_ray_starts(tmp_path, monkeypatch, capsys, args,
@@ -116,6 +124,7 @@ def test_bad_arguments_exit_2_in_one_line_before_ray_starts(tmp_path, monkeypatc
     import re
 
     monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sweep_cli.os, "cpu_count", lambda: 2)
     assert sweep_cli.main(args) == 2
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1
@@ -166,3 +175,82 @@ print(obs.shape)
 def test_spawned_workers_find_the_environments_by_their_module_ids(run_python):
     # Started with -c: no script file, as from a notebook or a REPL.
     assert run_python(SPAWN_SNIPPET, timeout=120).strip() == "(2, 4)"
+
+
+# ------------------------------------------------- nothing hangs, nothing is left
+def test_an_address_where_nothing_listens_fails_within_seconds(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    started = time.monotonic()
+    assert sweep_cli.main(["--seeds", "1", "--address", "127.0.0.1:1"]) == 1
+    assert time.monotonic() - started < 10
+    assert capsys.readouterr().err == (
+        "python -m warehouse_phys.sweep: error: --address 127.0.0.1:1: no Ray cluster answers: "
+        "Connection refused\n"
+    )
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_no_cluster_at_auto_is_one_line_and_leaves_no_folder(tmp_path, monkeypatch, capsys):
+    import ray
+
+    message = "Could not find any running Ray instance. Please specify the one to connect to."
+
+    def no_cluster(**kwargs):
+        raise ConnectionError(message)
+
+    monkeypatch.setattr(ray, "init", no_cluster)
+    out = tmp_path / "sweep"
+    assert sweep_cli.main(["--seeds", "1", "--address", "auto", "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err == f"python -m warehouse_phys.sweep: error: --address auto: {message}\n"
+    assert not out.exists()
+
+
+def test_a_folder_of_other_files_is_refused(tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep")
+    (out / "runs").mkdir()
+    assert sweep_cli.main(["--seeds", "1", "--out", str(out)]) == 2
+    assert capsys.readouterr().err == (
+        f"python -m warehouse_phys.sweep: error: --out {out} holds files that are not a "
+        "sweep's (notes.txt); choose a new or empty folder, or an earlier sweep's folder to "
+        "resume it\n"
+    )
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "runs"]
+    (out / "notes.txt").unlink()
+    (out / ".results.csv.x1y2.tmp").write_text("")  # a killed sweep's half-written table
+    sweep_cli.check_sweep_folder(out)  # an earlier sweep's folder: resumed
+
+
+def test_sigterm_shuts_down_the_ray_it_started(monkeypatch):
+    import ray
+
+    calls = []
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    monkeypatch.setattr(ray, "init", lambda **kwargs: calls.append("init"))
+    monkeypatch.setattr(ray, "shutdown", lambda: calls.append("shutdown"))
+    before = signal.getsignal(signal.SIGTERM)
+
+    def sweep_killed():
+        with sweep_cli.ray_session(None, 1):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)  # interrupted at once
+
+    started = time.monotonic()
+    with pytest.raises(sweep_cli.Terminated):
+        sweep_killed()
+    assert time.monotonic() - started < 4
+    assert calls == ["init", "shutdown"]
+    assert signal.getsignal(signal.SIGTERM) == before
+
+
+def test_a_terminated_sweep_exits_143_in_one_line(tmp_path, monkeypatch, capsys):
+    def terminated(*args, **kwargs):
+        raise sweep_cli.Terminated
+
+    monkeypatch.setattr(sweep_cli, "run_on_tune", terminated)
+    assert sweep_cli.main(["--seeds", "1", "--out", str(tmp_path / "s")]) == 143
+    err = capsys.readouterr().err
+    assert err.startswith("python -m warehouse_phys.sweep: terminated; finished trials keep")
+    assert len(err.splitlines()) == 1

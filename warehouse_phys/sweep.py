@@ -14,15 +14,23 @@ and ``summary.png`` (each configuration's spread over its seeds).
 
 Running the same command again with the same ``--out`` resumes: a trial whose
 folder holds a complete run of its configuration is not trained again, and the
-tables cover the whole grid. A failed trial is recorded with its error while the others go on; the
-command then exits with status 1 and says how many failed. Ray Tune comes with
-the ``ray`` extra (``pip install "warehouse_phys[ray]"``); without it the
-command exits with status 2 and says so.
+tables cover the whole grid. A folder holding anything but a sweep's own files
+is refused, as ``train --out`` refuses a folder of other files. A failed trial
+is recorded with its error while the others go on; the command then exits with
+status 1 and says how many failed. Ray Tune comes with the ``ray`` extra
+(``pip install "warehouse_phys[ray]"``); without it the command exits with
+status 2 and says so.
+
+Nothing waits for resources that cannot come: ``--cpus-per-trial`` beyond the
+machine's (or the cluster's) CPUs is refused, and an ``--address`` where no Ray
+cluster answers fails within seconds, each in one line. On SIGINT or SIGTERM
+the Ray processes the sweep started are shut down before it exits.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import importlib.util
 import io
@@ -30,14 +38,18 @@ import itertools
 import json
 import logging
 import os
+import signal
+import socket
 import sys
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from warehouse_phys.atomic import atomic_write_text
+from warehouse_phys.atomic import TEMPORARY_PREFIX, TEMPORARY_SUFFIX, atomic_write_text
 from warehouse_phys.cli import (
     ArgumentParser,
     UsageError,
@@ -55,6 +67,12 @@ DEFAULT_SWEEPS_DIR = Path("sweeps")
 #: The floor named ``default`` in ``--layout``: the plain floor of ``--rows`` x ``--cols``.
 DEFAULT_FLOOR = "default"
 RESULTS_CSV, RESULTS_JSON, SUMMARY_PNG = "results.csv", "results.json", "summary.png"
+#: What a sweep folder may hold: the sweep's tables and figure, its run folders and Tune's.
+SWEEP_ENTRIES = frozenset({RESULTS_CSV, RESULTS_JSON, SUMMARY_PNG, "runs", "tune"})
+#: Most seeds in one ``--seeds``: each is a trial (times the other settings) and a folder.
+MAX_SEEDS = 10_000
+#: How long ``--address host:port`` may take to accept a connection [s].
+CONNECT_TIMEOUT = 5.0
 #: The columns of ``results.csv``, in order.
 COLUMNS = (
     "trial",
@@ -222,6 +240,8 @@ def _seeds(text: str) -> list[int]:
         ) from None
     if first < 0 or last < first:
         raise argparse.ArgumentTypeError(f"expected a count N >= 1 or a range A-B, got {text!r}")
+    if last - first >= MAX_SEEDS:
+        raise argparse.ArgumentTypeError(f"expected at most {MAX_SEEDS} seeds, got {text!r}")
     return list(range(first, last + 1))
 
 
@@ -312,7 +332,138 @@ def write_results(sweep_dir: Path, trials: Sequence[Trial], rows: Sequence[dict]
     save_figure(figure, sweep_dir / SUMMARY_PNG)
 
 
+def check_sweep_folder(sweep_dir: Path) -> None:
+    """Refuse a sweep folder that holds anything but a sweep's own files.
+
+    A new or empty folder starts a sweep, an earlier sweep's folder resumes it;
+    a folder of other files is never written into, as with ``train --out``.
+
+    Raises:
+        UsageError: naming the folder and a few of the files that are not a sweep's.
+    """
+    try:
+        names = sorted(entry.name for entry in os.scandir(sweep_dir))
+    except FileNotFoundError:
+        return
+    except NotADirectoryError:
+        raise UsageError(f"--out {sweep_dir} exists and is not a folder") from None
+    except OSError as error:
+        raise UsageError(f"--out {sweep_dir}: cannot read it: {error.strerror}") from None
+    temporary = tuple(f"{TEMPORARY_PREFIX}{name}." for name in SWEEP_ENTRIES)
+    foreign = [
+        name
+        for name in names
+        if name not in SWEEP_ENTRIES
+        and not (name.startswith(temporary) and name.endswith(TEMPORARY_SUFFIX))
+    ]
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (
+            f" and {len(foreign) - 3} more" if len(foreign) > 3 else ""
+        )
+        raise UsageError(
+            f"--out {sweep_dir} holds files that are not a sweep's ({shown}); choose a new or "
+            "empty folder, or an earlier sweep's folder to resume it"
+        )
+
+
+def check_cpus_per_trial(cpus_per_trial: int, available: float, where: str) -> None:
+    """Refuse a trial that needs more CPUs than ``where`` has: Ray would wait for ever.
+
+    Raises:
+        UsageError: naming the CPUs available.
+    """
+    if cpus_per_trial > available:
+        raise UsageError(
+            f"--cpus-per-trial {cpus_per_trial}: {where} has {available:g} CPUs, so no trial "
+            "could ever start"
+        )
+
+
 # ------------------------------------------------------------------- running
+class RayUnavailableError(Exception):
+    """No Ray cluster could be reached or started; the message says why, in one line."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised as an interrupt so that the Ray processes started are shut down."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+def check_address(address: str) -> None:
+    """Fail at once where nothing listens at ``address`` (``host:port`` or ``ray://host:port``).
+
+    Ray itself retries an address for minutes. ``auto`` and ``local`` are left to Ray.
+
+    Raises:
+        RayUnavailableError: if no connection opens within :data:`CONNECT_TIMEOUT`.
+    """
+    if address in ("auto", "local"):
+        return
+    host, colon, port = address.removeprefix("ray://").rpartition(":")
+    if not colon or not port.isdigit() or not host:
+        raise RayUnavailableError(
+            f"--address {address}: expected host:port, ray://host:port, auto or local"
+        )
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT):
+            pass
+    except (OSError, OverflowError) as error:
+        reason = getattr(error, "strerror", None) or str(error) or type(error).__name__
+        raise RayUnavailableError(
+            f"--address {address}: no Ray cluster answers: {reason}"
+        ) from None
+
+
+@contextmanager
+def ray_session(address: str | None, cpus_per_trial: int) -> Iterator[None]:
+    """Ray for the sweep: connected to ``address``, or a local Ray started here.
+
+    A Ray this call started is shut down when the block ends, however it ends:
+    SIGINT and (while the block lasts) SIGTERM interrupt it as
+    ``KeyboardInterrupt``. A Ray already running in the process is used as it is.
+
+    Raises:
+        RayUnavailableError: if no cluster answers at ``address``, or Ray cannot start.
+        UsageError: if the cluster has fewer CPUs than ``cpus_per_trial``.
+    """
+    import ray
+
+    if ray.is_initialized():
+        yield
+        return
+    if address is not None:
+        check_address(address)
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.getsignal(signal.SIGTERM) if main_thread else None
+    options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
+                               "logging_level": logging.ERROR}  # fmt: skip
+    try:
+        if main_thread:
+            signal.signal(signal.SIGTERM, _terminate)
+        try:
+            if address is None:
+                ray.init(num_cpus=os.cpu_count() or 1, **options)
+            else:
+                ray.init(address=address, **options)
+        except (ConnectionError, RuntimeError, ValueError) as error:
+            lines = str(error).strip().splitlines() or [type(error).__name__]
+            where = "cannot start a local Ray" if address is None else f"--address {address}"
+            raise RayUnavailableError(f"{where}: {lines[0]}") from None
+        if main_thread:
+            signal.signal(signal.SIGTERM, _terminate)  # ray.init installs its own
+        if address is not None:
+            cpus = ray.cluster_resources().get("CPU", 0)
+            check_cpus_per_trial(cpus_per_trial, cpus, f"the cluster at {address}")
+        yield
+    finally:
+        ray.shutdown()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
 def run_on_tune(
     jobs: Sequence[dict[str, Any]],
     sweep_dir: Path,
@@ -327,17 +478,11 @@ def run_on_tune(
     # one line per finished trial (the Progress callback below).
     os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")
     os.environ.setdefault("TUNE_DISABLE_AUTO_CALLBACK_LOGGERS", "1")
-    import ray
+    # Ctrl-C interrupts at once (and ray_session shuts Ray down) rather than waiting
+    # for Tune to stop the trials gracefully.
+    os.environ.setdefault("TUNE_DISABLE_SIGINT_HANDLER", "1")
     from ray import tune
 
-    started_here = not ray.is_initialized()
-    if started_here:
-        options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
-                                   "logging_level": logging.ERROR}  # fmt: skip
-        if address is None:
-            ray.init(num_cpus=os.cpu_count() or 1, **options)
-        else:
-            ray.init(address=address, **options)
     total = len(jobs)
 
     class Progress(tune.Callback):
@@ -357,7 +502,7 @@ def run_on_tune(
             if not quiet:
                 print(f"[{self.done}/{total}] {trial.config['job']['name']}: {status}", flush=True)
 
-    try:
+    with ray_session(address, cpus_per_trial):
         trainable = tune.with_resources(run_trial_job, {"cpu": cpus_per_trial})
         tuner = tune.Tuner(
             trainable,
@@ -373,9 +518,6 @@ def run_on_tune(
         )
         logging.getLogger("ray").setLevel(logging.CRITICAL)
         grid = tuner.fit()
-    finally:
-        if started_here:
-            ray.shutdown()
     outcomes: dict[str, dict[str, Any] | BaseException] = {}
     for result in grid:
         name = result.config["job"]["name"]
@@ -410,20 +552,28 @@ def main(argv: list[str] | None = None) -> int:
                 f"the sweep runs on Ray Tune, which is not installed: {INSTALL_RAY}"
             ) from None
         trials = trials_from_args(args)
+        if args.address is None:
+            check_cpus_per_trial(args.cpus_per_trial, os.cpu_count() or 1, "this machine")
+        else:
+            check_address(args.address)
         sweep_dir = args.out or DEFAULT_SWEEPS_DIR / time.strftime("%Y%m%d-%H%M%S")
-        if sweep_dir.exists() and not sweep_dir.is_dir():
-            raise UsageError(f"--out {sweep_dir} exists and is not a folder")
+        check_sweep_folder(sweep_dir)
         return _sweep(args, trials, sweep_dir)
     except UsageError as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted; finished trials keep their folders: run the same "
-              "command again to resume", file=sys.stderr)  # fmt: skip
-        return 130
+    except RayUnavailableError as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt as interrupt:
+        print(f"{PROG}: {'terminated' if isinstance(interrupt, Terminated) else 'interrupted'}; "
+              "finished trials keep their folders: run the same command again to resume",
+              file=sys.stderr)  # fmt: skip
+        return 128 + (signal.SIGTERM if isinstance(interrupt, Terminated) else signal.SIGINT)
 
 
 def _sweep(args: argparse.Namespace, trials: list[Trial], sweep_dir: Path) -> int:
+    created = not sweep_dir.exists()
     try:
         sweep_dir.mkdir(parents=True, exist_ok=True)
     except OSError as error:
@@ -440,14 +590,20 @@ def _sweep(args: argparse.Namespace, trials: list[Trial], sweep_dir: Path) -> in
               f"finished, {len(pending)} to run")  # fmt: skip
     started = time.perf_counter()
     if pending:
-        outcomes = run_on_tune(
-            [trial.to_job(sweep_dir, args.gif) for trial in pending],
-            sweep_dir,
-            address=args.address,
-            cpus_per_trial=args.cpus_per_trial,
-            max_concurrent=args.max_concurrent,
-            quiet=args.quiet,
-        )
+        try:
+            outcomes = run_on_tune(
+                [trial.to_job(sweep_dir, args.gif) for trial in pending],
+                sweep_dir,
+                address=args.address,
+                cpus_per_trial=args.cpus_per_trial,
+                max_concurrent=args.max_concurrent,
+                quiet=args.quiet,
+            )
+        except (RayUnavailableError, UsageError):
+            if created:  # no Ray, no trial: leave no empty folder behind
+                with contextlib.suppress(OSError):
+                    sweep_dir.rmdir()
+            raise
         for trial in pending:
             outcome = outcomes.get(trial.name)
             if isinstance(outcome, dict):
