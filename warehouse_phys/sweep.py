@@ -388,7 +388,12 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised as an interrupt so that the Ray processes started are shut down."""
 
 
+#: Set once SIGTERM arrives: Tune may re-raise the interrupt as a plain KeyboardInterrupt.
+_terminated = threading.Event()
+
+
 def _terminate(signum: int, frame: object) -> None:
+    _terminated.set()
     raise Terminated
 
 
@@ -566,10 +571,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt as interrupt:
-        print(f"{PROG}: {'terminated' if isinstance(interrupt, Terminated) else 'interrupted'}; "
-              "finished trials keep their folders: run the same command again to resume",
-              file=sys.stderr)  # fmt: skip
-        return 128 + (signal.SIGTERM if isinstance(interrupt, Terminated) else signal.SIGINT)
+        terminated = isinstance(interrupt, Terminated) or _terminated.is_set()
+        print(f"{PROG}: {'terminated' if terminated else 'interrupted'}; finished trials keep "
+              "their folders: run the same command again to resume", file=sys.stderr)  # fmt: skip
+        return 128 + (signal.SIGTERM if terminated else signal.SIGINT)
 
 
 def _sweep(args: argparse.Namespace, trials: list[Trial], sweep_dir: Path) -> int:
