@@ -1,9 +1,12 @@
 """The fleet's traffic rule, checked exhaustively for two and three robots on small floors."""
 
 import itertools
+from pathlib import Path
 
+import numpy as np
 import pytest
 
+from tests.golden_traffic import FLOORS as FLOORS_OF_GOLDEN
 from warehouse_phys.grid import WarehouseGrid
 from warehouse_phys.traffic import (
     CORNER_FOLLOW_DISTANCE,
@@ -117,3 +120,22 @@ def test_corner_follows_are_safe_below_the_geometric_threshold():
 def test_bad_input_is_refused(cells, actions, message):
     with pytest.raises(ValueError, match=message):
         resolve_moves(WarehouseGrid(2, 3), cells, actions)
+
+
+def test_the_rule_grants_what_its_first_version_granted():
+    """Golden outcomes recorded from the loop-until-stable version of the rule
+    (``tests/golden_traffic.py``), over four floors, sparse to full fleets, parked
+    robots and both corner settings."""
+    golden = np.load(Path(__file__).with_name("traffic_golden.npz"))
+    grids = [make() for make in FLOORS_OF_GOLDEN.values()]
+    for case in range(len(golden["n"])):
+        n = golden["n"][case]
+        ends, refused = resolve_moves(
+            grids[golden["floor"][case]],
+            golden["cells"][case, :n],
+            golden["actions"][case, :n],
+            golden["parked"][case, :n],
+            corner_follows=bool(golden["corner"][case]),
+        )
+        np.testing.assert_array_equal(np.asarray(ends), golden["ends"][case, :n])
+        np.testing.assert_array_equal(np.asarray(refused), golden["refused"][case, :n])
