@@ -84,11 +84,11 @@ def test_chains_and_rotations_move_together_and_corners_need_small_robots():
     # A straight chain of three following each other to the right.
     ends, refused = resolve_moves(grid, [(0, 0), (0, 1), (0, 2)], [2, 2, 2])
     assert [tuple(e) for e in ends] == [(0, 1), (0, 2), (0, 3)]
-    assert refused == [False] * 3
+    assert refused.tolist() == [False] * 3
     # Blocked at the head: the whole chain waits.
     ends, refused = resolve_moves(grid, [(0, 1), (0, 2), (0, 3)], [2, 2, 2])
     assert [tuple(e) for e in ends] == [(0, 1), (0, 2), (0, 3)]
-    assert refused == [True, True, False]  # the head bumps the wall: the floor refused it
+    assert refused.tolist() == [True, True, False]  # the head bumps the wall: the floor refused it
     # A rotation of four in a 2 x 2 block: every follow is a corner.
     block, turn = [(0, 0), (0, 1), (1, 1), (1, 0)], [2, 1, 0, 3]
     ends, _ = resolve_moves(grid, block, turn, corner_follows=True)
@@ -97,10 +97,10 @@ def test_chains_and_rotations_move_together_and_corners_need_small_robots():
     assert [tuple(e) for e in ends] == block
     assert all(refused)
     # Two robots swapping both wait; a parked robot is an obstacle.
-    assert resolve_moves(grid, [(0, 0), (0, 1)], [2, 0])[1] == [True, True]
+    assert resolve_moves(grid, [(0, 0), (0, 1)], [2, 0])[1].tolist() == [True, True]
     ends, refused = resolve_moves(grid, [(0, 0), (0, 1)], [2, 2], parked=[False, True])
     assert [tuple(e) for e in ends] == [(0, 0), (0, 1)]
-    assert refused == [True, False]
+    assert refused.tolist() == [True, False]
 
 
 def test_corner_follows_are_safe_below_the_geometric_threshold():
@@ -126,7 +126,8 @@ def test_the_rule_grants_what_its_first_version_granted():
     """Golden outcomes recorded from the loop-until-stable version of the rule
     (``tests/golden_traffic.py``), over four floors, sparse to full fleets, parked
     robots and both corner settings."""
-    golden = np.load(Path(__file__).with_name("traffic_golden.npz"))
+    with np.load(Path(__file__).with_name("traffic_golden.npz")) as stored:
+        golden = dict(stored)
     grids = [make() for make in FLOORS_OF_GOLDEN.values()]
     for case in range(len(golden["n"])):
         n = golden["n"][case]

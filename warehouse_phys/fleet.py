@@ -252,6 +252,7 @@ class WarehouseFleetEnv(ParallelEnv):
         ends, refused = resolve_moves(
             self.grid, self._cells, joint, self._parked, corner_follows=self.corner_follows
         )
+        ends = [Cell(r, c) for r, c in ends.tolist()]
         snap_errors, gaps = np.zeros(self.num_robots), None
         if self.physics:
             ends, snap_errors, gaps = self._drive(joint, ends)

@@ -21,6 +21,10 @@ Every robot of a fleet chooses an action at once: one of the four moves of
    :func:`corner_follows_are_safe` decides from the robots' size; otherwise the
    follower waits.
 
+:func:`resolve_moves` applies the rule with array operations, O(N) per joint step
+(the chains and cycles of rule 3 by pointer doubling), and grants exactly what the
+first, loop-until-stable version granted (golden outcomes in the tests).
+
 Every other pair of robots stays at least a cell apart throughout a step in
 which the rule's grants are driven: a robot that follows another straight keeps
 its distance of one cell, and robots in different cells that do not follow each
@@ -33,7 +37,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from warehouse_phys.grid import Cell, WarehouseGrid
+import numpy as np
+
+from warehouse_phys.grid import ACTION_DELTAS, WarehouseGrid
 
 #: The fleet's extra action: stay on the cell (yielding is how fleets avoid deadlock).
 WAIT = 4
@@ -56,72 +62,150 @@ def corner_follows_are_safe(robot_diameter: float) -> bool:
     return robot_diameter + CORNER_FOLLOW_MARGIN < CORNER_FOLLOW_DISTANCE
 
 
+def neighbour_table(grid: WarehouseGrid) -> np.ndarray:
+    """The cell each action leads to from every cell, as a read-only ``(rows * cols, 5)``
+    int64 array of cell indices (``row * cols + col``): actions 0..3 as
+    :meth:`WarehouseGrid.move` (a move into a wall or a shelf stays), 4 (:data:`WAIT`)
+    stays. Floors of the same size and layout share one table."""
+    key = (grid.rows, grid.cols, grid.layout)
+    table = _NEIGHBOUR_TABLES.pop(key, None)
+    if table is None:
+        rows, cols = grid.rows, grid.cols
+        free = np.ones((rows, cols), dtype=bool)
+        if grid.shelves:
+            shelves = np.array(sorted(grid.shelves), dtype=np.int64)
+            free[shelves[:, 0], shelves[:, 1]] = False
+        row, col = np.divmod(np.arange(rows * cols, dtype=np.int64), cols)
+        table = np.empty((rows * cols, FLEET_ACTIONS), dtype=np.int64)
+        table[:, WAIT] = row * cols + col
+        for action, (d_row, d_col) in enumerate(ACTION_DELTAS):
+            to_row, to_col = row + d_row, col + d_col
+            inside = (to_row >= 0) & (to_row < rows) & (to_col >= 0) & (to_col < cols)
+            allowed = inside.copy()
+            allowed[inside] = free[to_row[inside], to_col[inside]]
+            table[:, action] = np.where(allowed, to_row * cols + to_col, table[:, WAIT])
+        table.flags.writeable = False
+    _NEIGHBOUR_TABLES[key] = table  # most recently used last
+    while len(_NEIGHBOUR_TABLES) > _NEIGHBOUR_TABLES_KEPT:
+        del _NEIGHBOUR_TABLES[next(iter(_NEIGHBOUR_TABLES))]
+    return table
+
+
 def resolve_moves(
     grid: WarehouseGrid,
-    cells: Sequence[tuple[int, int]],
-    actions: Sequence[int],
-    parked: Sequence[bool] | None = None,
+    cells: np.ndarray | Sequence[tuple[int, int]],
+    actions: np.ndarray | Sequence[int],
+    parked: np.ndarray | Sequence[bool] | None = None,
     *,
     corner_follows: bool = True,
-) -> tuple[list[Cell], list[bool]]:
-    """Apply the traffic rule (see the module) to one joint step.
+) -> tuple[np.ndarray, np.ndarray]:
+    """Apply the traffic rule (see the module) to one joint step, in O(N) array operations.
 
     Args:
         grid: The floor.
-        cells: Each robot's cell; no two the same.
+        cells: Each robot's ``(row, col)``, shape ``(N, 2)``; no two the same.
         actions: Each robot's action, 0..3 (a move) or :data:`WAIT`.
         parked: Which robots are parked (never move); default none.
         corner_follows: Whether corner follows are granted.
 
     Returns:
-        The cell each robot ends on, and whether traffic refused its move (a
-        move that the floor alone would have allowed, turned into a wait).
+        The cell each robot ends on (``(N, 2)`` int64), and whether traffic refused
+        its move (``(N,)`` bool: a move that the floor alone would have allowed,
+        turned into a wait).
 
     Raises:
-        ValueError: if two robots share a cell or an action is not 0..4.
+        ValueError: if two robots share a cell, a cell is off the floor or an action
+            is not 0..4.
     """
-    n = len(cells)
-    here = [Cell(int(r), int(c)) for r, c in cells]
-    if len(set(here)) != n:
-        raise ValueError(f"two robots share a cell: {[tuple(c) for c in here]}")
-    parked = [False] * n if parked is None else [bool(p) for p in parked]
-    wanted: list[Cell] = []
-    for i, action in enumerate(actions):
-        if action not in range(FLEET_ACTIONS):
-            raise ValueError(f"robot {i}'s action must be 0..4 (4 is WAIT), got {action!r}")
-        stays = action == WAIT or parked[i]
-        wanted.append(here[i] if stays else grid.move(here[i], action))
-    moving = [wanted[i] != here[i] for i in range(n)]
+    here, act, parked = _checked_joint(grid, cells, actions, parked)
+    n = len(here)
+    table = neighbour_table(grid)
+    act = np.where(parked, WAIT, act)
+    wanted = table[here, act]
+    moving = wanted != here
+    robots = np.arange(n)
 
     # Rule 2: the lowest-numbered of the robots heading for one cell goes.
-    claimed: dict[Cell, int] = {}
-    for i in range(n):
-        if moving[i]:
-            if wanted[i] in claimed:
-                moving[i] = False
-            else:
-                claimed[wanted[i]] = i
-    # Rules 3 and 4, until nothing changes: waits only ever spread.
-    occupant = {cell: i for i, cell in enumerate(here)}
-    changed = True
-    while changed:
-        changed = False
-        for i in range(n):
-            if not moving[i]:
-                continue
-            j = occupant.get(wanted[i])
-            if j is None:
-                continue
-            leaves = moving[j]
-            swap = leaves and wanted[j] == here[i]
-            corner = leaves and _direction(here[j], wanted[j]) != _direction(here[i], wanted[i])
-            if not leaves or swap or (corner and not corner_follows):
-                moving[i] = False
-                changed = True
-    ends = [wanted[i] if moving[i] else here[i] for i in range(n)]
-    refused = [wanted[i] != here[i] and not moving[i] for i in range(n)]
-    return ends, refused
+    claim = np.full(table.shape[0], n, dtype=np.int64)
+    np.minimum.at(claim, wanted[moving], robots[moving])
+    moving &= claim[wanted] == robots
+    # Rules 3 and 4. Robot i heads for robot j's cell: i goes only if j goes, they do
+    # not swap and, without corner follows, j leaves the same way. After rule 2 at most
+    # one robot heads for each cell, so "i waits for j" links form chains and cycles:
+    # i goes iff every robot down its chain (round its cycle) may go, an AND along the
+    # links taken by pointer doubling.
+    occupant = claim  # reused: every cell is claimed by n or a robot of ``wanted``
+    occupant.fill(-1)
+    occupant[here] = robots
+    ahead = np.where(moving, occupant[wanted], -1)
+    follows = ahead >= 0
+    leader = np.where(follows, ahead, robots)
+    may_go = moving.copy()
+    may_go[follows] &= moving[leader[follows]] & (wanted[leader[follows]] != here[follows])
+    if not corner_follows:
+        may_go[follows] &= act[leader[follows]] == act[follows]
+    for _ in range(max(1, n).bit_length()):
+        if np.array_equal(leader[leader], leader):
+            may_go &= may_go[leader]
+            break
+        may_go &= may_go[leader]
+        leader = leader[leader]
+    else:  # a cycle: 2**bit_length(n) >= n links, round it and beyond
+        may_go &= may_go[leader]
+
+    ends = np.empty((n, 2), dtype=np.int64)
+    np.divmod(np.where(may_go, wanted, here), grid.cols, out=(ends[:, 0], ends[:, 1]))
+    return ends, (wanted != here) & ~may_go
 
 
-def _direction(start: Cell, end: Cell) -> tuple[int, int]:
-    return (end[0] - start[0], end[1] - start[1])
+def moves_refused_by_floor(
+    grid: WarehouseGrid,
+    cells: np.ndarray | Sequence[tuple[int, int]],
+    actions: np.ndarray | Sequence[int],
+    parked: np.ndarray | Sequence[bool] | None = None,
+) -> np.ndarray:
+    """Which robots bump: a move (not :data:`WAIT`, not parked) into a wall or a shelf,
+    which the floor refuses as for a single robot (the physics twin drives it and
+    drives back). ``(N,)`` bool; the arguments as for :func:`resolve_moves`."""
+    here, act, parked = _checked_joint(grid, cells, actions, parked)
+    return (act != WAIT) & ~parked & (neighbour_table(grid)[here, act] == here)
+
+
+def _checked_joint(
+    grid: WarehouseGrid,
+    cells: np.ndarray | Sequence[tuple[int, int]],
+    actions: np.ndarray | Sequence[int],
+    parked: np.ndarray | Sequence[bool] | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cell indices, actions and the parked mask as arrays, or a one-line ``ValueError``."""
+    cells = np.asarray(cells)
+    n = len(cells)
+    if cells.size == 0:
+        cells = cells.reshape(0, 2)
+    if cells.ndim != 2 or cells.shape[1] != 2 or cells.dtype.kind not in "iu":
+        raise ValueError(f"cells must be N (row, col) integer pairs, got shape {cells.shape}")
+    rows, cols = cells[:, 0].astype(np.int64), cells[:, 1].astype(np.int64)
+    off = (rows < 0) | (rows >= grid.rows) | (cols < 0) | (cols >= grid.cols)
+    if off.any():
+        i = int(np.flatnonzero(off)[0])
+        raise ValueError(f"robot {i}'s cell {tuple(cells[i].tolist())} is off the floor")
+    here = rows * grid.cols + cols
+    if n > 1 and len(np.unique(here)) != n:
+        raise ValueError(f"two robots share a cell: {[tuple(c) for c in cells.tolist()]}")
+    act = np.asarray(actions)
+    if act.shape != (n,):
+        raise ValueError(f"need one action per robot ({n}), got shape {act.shape}")
+    if act.dtype.kind not in "iu" or ((act < 0) | (act >= FLEET_ACTIONS)).any():
+        bad = [i for i, a in enumerate(act.tolist()) if a not in range(FLEET_ACTIONS)]
+        if not bad:
+            raise ValueError(f"actions must be integers 0..4 (4 is WAIT), got {act.dtype}")
+        raise ValueError(f"robot {bad[0]}'s action must be 0..4 (4 is WAIT), got {act[bad[0]]!r}")
+    parked = np.zeros(n, dtype=bool) if parked is None else np.asarray(parked, dtype=bool)
+    if parked.shape != (n,):
+        raise ValueError(f"need one parked flag per robot ({n}), got shape {parked.shape}")
+    return here, act.astype(np.int64, copy=False), parked
+
+
+_NEIGHBOUR_TABLES: dict[tuple, np.ndarray] = {}
+#: Floors whose neighbour tables are kept (a 500 x 140 floor's is 2.8 MB).
+_NEIGHBOUR_TABLES_KEPT = 16
