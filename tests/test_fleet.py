@@ -231,7 +231,7 @@ def test_a_fleet_layout_puts_its_robots_on_its_start_cells():
 @pytest.mark.parametrize(
     ("kwargs", "error", "message"),
     [
-        ({"num_robots": 0}, ValueError, "num_robots must be 1 to"),
+        ({"num_robots": 0}, ValueError, "num_robots must be at least 1"),
         ({"num_robots": 2.0}, TypeError, "num_robots must be an integer"),
         ({"num_robots": 5, "grid_rows": 2, "grid_cols": 2}, ValueError, "need 5 start cells"),
         ({"num_robots": 7, "layout": "depot"}, ValueError, "7 robots need 7 package cells away"),
@@ -266,7 +266,7 @@ def test_bad_actions_are_refused_and_change_nothing(actions, error, message):
     with pytest.raises(error, match=message):
         env.step(actions)
     assert np.array_equal(env.state(), before)
-    assert env._steps == 0
+    assert env.steps == 0
 
 
 def test_frames_show_every_robot_in_its_colour():
@@ -293,3 +293,114 @@ def test_each_robots_package_is_uniform_over_the_cells_left_to_it():
         counts[tuple(env.state()[2:4])] += 1  # robot_0 draws first, from every target cell
     statistic, bound = chi_square_uniform(list(counts.values()))
     assert statistic < bound
+
+
+# ------------------------------------------------- delivery modes, starts, scale
+@pytest.mark.parametrize(
+    ("on_delivery", "observation"),
+    [("leave", "local"), ("new_package", "neighbours"), ("park", "neighbours")],
+)
+def test_pettingzoos_suites_pass_for_every_delivery_mode_and_observation(on_delivery, observation):
+    kwargs = {"num_robots": 3, "observation": observation, "on_delivery": on_delivery,
+              "max_cycles": 40}  # fmt: skip
+    pettingzoo_quietly(parallel_api_test, fleet.parallel_env(**kwargs), num_cycles=100)
+    pettingzoo_quietly(parallel_seed_test, functools.partial(fleet.parallel_env, **kwargs), 40)
+    pettingzoo_quietly(api_test, fleet.env(**kwargs), num_cycles=60)
+
+
+def test_a_robot_that_leaves_frees_its_cell():
+    env = fleet.parallel_env(num_robots=2, on_delivery="leave", grid_rows=2, grid_cols=3)
+    env.reset(seed=0)
+    env._cells = np.array([(1, 1), (1, 2)])
+    env._packages = np.array([(1, 0), (1, 1)])
+    _, rewards, terminations, _, _ = env.step({"robot_0": 0, "robot_1": 0})
+    # robot_1 follows robot_0 straight onto its package: delivered, and gone.
+    assert rewards == {"robot_0": 1.0, "robot_1": 1.0}
+    assert terminations == {"robot_0": True, "robot_1": True}
+    assert env.on_floor.tolist() == [False, False]
+    assert env.agents == []
+    env.reset(seed=0)
+    env._cells = np.array([(1, 1), (1, 2)])
+    env._packages = np.array([(1, 0), (0, 0)])
+    env.step({"robot_0": 0, "robot_1": WAIT})  # robot_0 delivers and leaves (1, 0)
+    assert env.agents == ["robot_1"]
+    assert not env.on_floor[0]
+    env.step({"robot_1": 0})
+    env.step({"robot_1": 0})
+    assert env.robot_cells[1].tolist() == [1, 0]  # through the cell robot_0 left
+    with pytest.raises(ValueError, match="read-only"):
+        env.robot_cells[0, 0] = 3
+
+
+def test_the_neighbours_mask_marks_adjacent_robots_on_the_floor():
+    env = fleet.parallel_env(num_robots=12, observation="neighbours", layout="aisles",
+                             starts="random")  # fmt: skip
+    assert env.observation_space("robot_0").nvec.tolist() == [7, 9, 7, 9, 16]
+    rng = np.random.default_rng(0)
+    observations, _ = env.reset(seed=5)
+    for _ in range(30):
+        cells = {tuple(c) for c in env.robot_cells.tolist()}
+        for agent, obs in observations.items():
+            row, col = obs[:2]
+            expected = sum(
+                bit
+                for (d_row, d_col), bit in zip([(0, -1), (1, 0), (0, 1), (-1, 0)],
+                                               fleet.NEIGHBOUR_BITS, strict=True)
+                if (row + d_row, col + d_col) in cells
+            )  # fmt: skip
+            assert obs[4] == expected, agent
+        observations, *_ = env.step({a: int(rng.integers(5)) for a in env.agents})
+
+
+def test_random_starts_are_distinct_reachable_and_follow_the_seed():
+    kwargs = {"num_robots": 20, "layout": "aisles", "starts": "random"}
+    a, b = fleet.parallel_env(**kwargs), fleet.parallel_env(**kwargs)
+    a.reset(seed=1)
+    b.reset(seed=1)
+    assert np.array_equal(a.state(), b.state())
+    cells = [tuple(c) for c in a.robot_cells.tolist()]
+    assert len(set(cells)) == 20
+    assert set(cells) <= set(a.grid.reachable)
+    b.reset(seed=2)
+    assert not np.array_equal(a.robot_cells, b.robot_cells)
+
+
+def test_ten_thousand_robots_step_on_one_floor():
+    env = fleet.parallel_env(num_robots=10_000, grid_rows=150, grid_cols=150,
+                             on_delivery="new_package", starts="random")  # fmt: skip
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(2):
+        actions = dict(zip(env.agents, rng.integers(5, size=10_000).tolist(), strict=True))
+        observations, rewards, *_ = env.step(actions)
+    assert len(observations) == len(rewards) == 10_000
+    flat = env.robot_cells[:, 0] * 150 + env.robot_cells[:, 1]
+    assert len(np.unique(flat)) == 10_000
+    with pytest.raises(ValueError, match="10,001 robots need 20,002 cells a robot can reach"):
+        fleet.parallel_env(num_robots=10_001, grid_rows=100, grid_cols=200, starts="random")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"on_delivery": "vanish"}, "on_delivery must be one of"),
+        ({"starts": "anywhere"}, "starts must be one of"),
+        ({"lifelong": True, "on_delivery": "park"}, "lifelong=True means"),
+        ({"num_robots": 300, "observation": "global", "grid_rows": 40}, "at most 256 robots"),
+        ({"num_robots": 300, "physics": True, "grid_rows": 40}, "physics world takes at most"),
+        ({"physics": True, "on_delivery": "leave"}, "'leave' is for the grid twin"),
+    ],
+)
+def test_bad_modes_are_refused_by_name(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        fleet.parallel_env(**kwargs)
+
+
+def test_the_aec_form_refuses_a_bad_action_before_anything_changes():
+    env = fleet.env(num_robots=2)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"robot_0's action must be 0\.\.4"):
+        env.step(7)
+    env.step(WAIT)  # still robot_0's turn: nothing was stored
+    env.step(WAIT)
+    assert env.unwrapped.steps == 1

@@ -595,7 +595,7 @@ def test_a_physics_fleet_run_writes_its_files(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--robots", "0"], "expected a number of robots from 1 to 64, got 0"),
+        (["--robots", "0"], "expected a number of robots from 1 to 10,000, got 0"),
         (["--robots", "3", "--render"], "--render shows one robot in a window"),
         (["--robots", "7", "--layout", "depot"], "7 robots need 7 package cells"),
     ],

@@ -14,9 +14,10 @@ from typing import Any, NoReturn
 from warehouse_phys.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
 from warehouse_phys.layouts import PRESETS
 from warehouse_phys.runs import ENVIRONMENTS, Floor
-from warehouse_phys.traffic import MAX_ROBOTS
 
 DEFAULT_ENV = "phys"
+#: Most robots a command takes; the floor may allow fewer (a clear error says so).
+MAX_CLI_ROBOTS = 10_000
 
 
 class UsageError(Exception):
@@ -58,11 +59,11 @@ def add_env_argument(parser: argparse.ArgumentParser, *, default: str | None, no
 
 
 def add_robots_argument(parser: argparse.ArgumentParser, *, what: str) -> None:
-    """``--robots N``, 1 (the single robot, the default) to ``MAX_ROBOTS``; ``what`` says
+    """``--robots N``, 1 (the single robot, the default) to :data:`MAX_CLI_ROBOTS`; ``what`` says
     what a fleet does in this command."""
     parser.add_argument(
         "--robots",
-        type=bounded_int(1, f"a number of robots from 1 to {MAX_ROBOTS}", MAX_ROBOTS),
+        type=bounded_int(1, f"a number of robots from 1 to {MAX_CLI_ROBOTS:,}", MAX_CLI_ROBOTS),
         default=1,
         help=f"{what} (default 1, the single robot)",
     )

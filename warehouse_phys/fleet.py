@@ -2,7 +2,7 @@
 
 ``warehouse_phys.fleet.parallel_env(**kwargs)`` returns a :class:`WarehouseFleetEnv`
 (a PettingZoo ``ParallelEnv``); ``warehouse_phys.fleet.env(**kwargs)`` the same as
-an AEC environment (PettingZoo's ``parallel_to_aec``).
+an AEC environment (PettingZoo's ``parallel_to_aec``, refusing a bad action at once).
 """
 
 from __future__ import annotations
@@ -14,42 +14,57 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import AECEnv, ParallelEnv
-from pettingzoo.utils.conversions import parallel_to_aec
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from warehouse_phys.batched_physics import ACTION_DELTA_ARRAY, BatchedPhysicsWorld
+from warehouse_phys.distances import DistanceMaps
 from warehouse_phys.envs import make_grid
-from warehouse_phys.grid import Cell
 from warehouse_phys.layouts import suggested_time_limit
 from warehouse_phys.physics import check_controller, physics_config_from
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer
 from warehouse_phys.traffic import (
     FLEET_ACTIONS,
-    MAX_ROBOTS,
     WAIT,
     corner_follows_are_safe,
-    resolve_moves,
+    granted_moves,
+    moves_refused_by_floor,
+    neighbour_table,
 )
 
-_OBSERVATIONS = ("local", "global")
+OBSERVATIONS = ("local", "global", "neighbours")
+DELIVERY_MODES = ("park", "leave", "new_package")
+START_MODES = ("auto", "layout", "random")
+#: Most robots whose observation may be ``"global"``: each robot's copy of the state
+#: holds 4 numbers per robot, so the observations grow with the square of the fleet.
+MAX_GLOBAL_OBSERVATION_ROBOTS = 256
+#: Most robots in the physics world: the closest-approach diagnostic compares every
+#: pair of discs at every physics step.
+MAX_PHYSICS_ROBOTS = 256
+#: Bits of the ``"neighbours"`` mask, in action order: a robot stands LEFT, DOWN, RIGHT, UP.
+NEIGHBOUR_BITS = (1, 2, 4, 8)
+_INTEGER_TYPES = frozenset({int, np.int64, np.int32, np.int16, np.int8, np.uint8,
+                            np.uint16, np.uint32, np.uint64})  # fmt: skip
 
 
 class WarehouseFleetEnv(ParallelEnv):
-    """Several robots on one warehouse floor, each delivering its own packages.
+    """Robots on one warehouse floor, each delivering its own packages.
 
     ## Description
-    ``num_robots`` robots share one floor (the default 4 x 5, any size, or a
-    layout). All move at once; the traffic rule of :mod:`warehouse_phys.traffic`
-    decides which moves are granted (walls and shelves refuse a move; among
-    robots heading for one cell the lowest-numbered goes; a robot heading for
-    a cell whose occupant stays waits, repeated until nothing changes, so chains
-    and rotations move together; swaps wait; corner follows only for robots
-    small enough to pass). With ``physics=False`` the grid twin applies the
-    rule to cells; with ``physics=True`` every robot is a body in one pymunk
-    space (:class:`~warehouse_phys.batched_physics.BatchedPhysicsWorld`, shapes
-    that collide with each other), each granted move is driven exactly as in
-    the single physics environment and a waiting robot holds its cell's centre.
-    The tests prove that the bodies end on the grid twin's cells, and that no
-    two discs ever come closer than their diameter minus the collision slop.
+    ``num_robots`` robots share one floor (the default 4 x 5, any size, a preset,
+    or a MovingAI ``.map`` file). All move at once; the traffic rule of
+    :mod:`warehouse_phys.traffic` decides which moves are granted (walls and
+    shelves refuse a move; among robots heading for one cell the lowest-numbered
+    goes; a robot heading for a cell whose occupant stays waits, so chains and
+    rotations move together; swaps wait; corner follows only for robots small
+    enough to pass). A step costs O(N) array operations: fleets of thousands of
+    robots run on the grid twin. With ``physics=True`` every robot is a body in
+    one pymunk space (:class:`~warehouse_phys.batched_physics.BatchedPhysicsWorld`,
+    shapes that collide with each other), each granted move is driven exactly as
+    in the single physics environment and a waiting robot holds its cell's
+    centre. The tests prove that the bodies end on the grid twin's cells, and
+    that no two discs ever come closer than their diameter minus the collision
+    slop.
 
     ## Action Space
     ``Discrete(5)`` per robot: LEFT=0, DOWN=1, RIGHT=2, UP=3 (as the single
@@ -58,32 +73,40 @@ class WarehouseFleetEnv(ParallelEnv):
     ``ValueError``/``TypeError`` naming the robot and changes nothing.
 
     ## Observation Space
-    ``observation="local"`` (default): each robot sees its own
-    ``[row, col, package_row, package_col]`` (``MultiDiscrete([R, C, R, C])``),
-    so one Q-table of shape ``(R, C, R, C, 5)`` serves every robot.
-    ``observation="global"``: every robot sees every robot's four numbers, in
-    robot order (``MultiDiscrete([R, C, R, C] * num_robots)``), as
-    :meth:`state` returns.
+    - ``"local"`` (default): each robot sees its own
+      ``[row, col, package_row, package_col]`` (``MultiDiscrete([R, C, R, C])``),
+      so one Q-table of shape ``(R, C, R, C, 5)`` serves every robot.
+    - ``"neighbours"``: the same four numbers and a mask of the adjacent cells on
+      which a robot stands (LEFT=1, DOWN=2, RIGHT=4, UP=8, :data:`NEIGHBOUR_BITS`;
+      parked robots count, robots that left the floor do not):
+      ``MultiDiscrete([R, C, R, C, 16])``, a shared table ``(R, C, R, C, 16, 5)``.
+    - ``"global"``: every robot sees every robot's four numbers, in robot order
+      (``MultiDiscrete([R, C, R, C] * num_robots)``), as :meth:`state` returns;
+      at most :data:`MAX_GLOBAL_OBSERVATION_ROBOTS` robots.
 
     ## Starting State
-    On a fleet layout, one with several ``S`` cells, robot ``i`` stands on the
-    ``i``-th in reading order. Otherwise robot 0 stands on the floor's start
-    and the others on the next cells a robot can reach in reading order (on a
-    plain floor: the first cells of row 0, then of row 1, ...), so the presets
-    take fleets too. Fewer start cells than robots, or too few package cells
-    (see below), raises ``ValueError``. Each
-    robot's package is drawn uniformly from the floor's package cells, never
-    on a robot's cell or another robot's package, with the environment's
-    generator (``reset(seed=...)``).
+    ``starts="layout"``: on a floor with several ``S`` cells robot ``i`` stands
+    on the ``i``-th in reading order; otherwise robot 0 on the floor's start and
+    the others on the next cells a robot can reach in reading order (on a plain
+    floor: the first cells of row 0, then of row 1, ...). ``starts="random"``:
+    at every reset the robots stand on distinct cells drawn uniformly, with the
+    environment's generator, from the cells reachable from the floor's start.
+    ``starts="auto"`` (default) is ``"random"`` on floors that mark no start
+    (MovingAI maps, the ``warehouse`` preset) and ``"layout"`` elsewhere. Each
+    robot's package is drawn uniformly from the floor's package cells, never on
+    a robot's cell or another robot's package. A floor without room for the
+    fleet is refused with a ``ValueError`` that gives the counts.
 
     ## Rewards
     1.0 to a robot on the step it reaches its package, else 0.0.
 
     ## Episode End
-    Without ``lifelong``, a robot that reaches its package terminates and parks
-    there, still an obstacle; the episode ends when all have terminated or at
-    ``max_cycles`` steps (truncation). With ``lifelong=True`` a robot gets a
-    new package at once and only the time limit ends the episode.
+    ``on_delivery`` decides what a robot does once it reaches its package:
+    ``"park"`` (default): it terminates and stays there, an obstacle;
+    ``"leave"``: it terminates and leaves the floor (POGEMA's one-shot mode);
+    ``"new_package"``: it gets a new package at once and never terminates
+    (lifelong; ``lifelong=True`` is shorthand for it). The episode ends when
+    every robot has terminated or at ``max_cycles`` steps (truncation).
 
     ``infos[robot]`` holds ``optimal_steps`` (to its own package, ignoring the
     other robots), ``refused`` (whether traffic turned its move into a wait),
@@ -91,19 +114,30 @@ class WarehouseFleetEnv(ParallelEnv):
     ``snap_error`` and ``min_gap``: the smallest distance between its disc and
     another robot's during the step [cells] (negative: the discs overlapped).
 
+    Planners and evaluators read the fleet through read-only arrays:
+    :attr:`robot_cells` and :attr:`package_cells` ``(N, 2)``, :attr:`parked`,
+    :attr:`on_floor`, :attr:`deliveries` ``(N,)``, :attr:`steps`, and
+    :attr:`distances`, the floor's shortest-path distances to packages (one
+    :class:`~warehouse_phys.distances.DistanceMaps`, built as packages appear).
+
     ## Arguments
-    - ``num_robots`` (int, default 2): 1 to :data:`MAX_ROBOTS`.
+    - ``num_robots`` (int, default 2): at least 1, at most what the floor has
+      start and package cells for (at most :data:`MAX_PHYSICS_ROBOTS` in the
+      physics world).
     - ``physics`` (bool, default False), and the physical keywords of
       :class:`~warehouse_phys.envs.WarehousePhysicsEnv` (``robot_radius`` ...),
       which also decide for the grid twin whether corner follows are granted.
-    - ``grid_rows``, ``grid_cols``, ``layout``: the floor, as in the single environments.
-    - ``lifelong`` (bool, default False), ``max_cycles`` (int; default
-      :func:`~warehouse_phys.layouts.suggested_time_limit` of the floor, the
-      single environments' limit), ``observation`` (``"local"`` or ``"global"``),
-      ``render_mode`` (``None``, ``"rgb_array"``: every robot in a ring of its own
-      colour, its package framed in the same colour; or ``"ansi"``: robots as
-      digits, packages as letters), ``cell_px``. :meth:`move_frames` gives the
-      physics world's motion during the last step, one frame per physics step.
+    - ``grid_rows``, ``grid_cols``, ``layout``: the floor, as in the single
+      environments (``layout`` also takes a path to a MovingAI ``.map`` file).
+    - ``on_delivery`` (``"park"``, ``"leave"``, ``"new_package"``), ``lifelong``
+      (bool), ``starts`` (``"auto"``, ``"layout"``, ``"random"``), ``max_cycles``
+      (int; default :func:`~warehouse_phys.layouts.suggested_time_limit` of the
+      floor, the single environments' limit), ``observation`` (``"local"``,
+      ``"neighbours"``, ``"global"``), ``render_mode`` (``None``; ``"rgb_array"``:
+      every robot in a ring of its own colour, its package framed in the same
+      colour; ``"ansi"``: robots as digits, packages as letters), ``cell_px``.
+      :meth:`move_frames` gives the physics world's motion during the last step,
+      one frame per physics step.
 
     ## Version History
     - v0: first version.
@@ -128,28 +162,52 @@ class WarehouseFleetEnv(ParallelEnv):
         observation: str = "local",
         render_mode: str | None = None,
         cell_px: int = DEFAULT_CELL_PX,
+        on_delivery: str | None = None,
+        starts: str = "auto",
         **physical: float,
     ) -> None:
         if isinstance(num_robots, bool) or not isinstance(num_robots, (int, np.integer)):
             raise TypeError(f"num_robots must be an integer, got {num_robots!r}")
-        if not 1 <= num_robots <= MAX_ROBOTS:
-            raise ValueError(f"num_robots must be 1 to {MAX_ROBOTS}, got {num_robots}")
+        if num_robots < 1:
+            raise ValueError(f"num_robots must be at least 1, got {num_robots}")
         for name, flag in (("physics", physics), ("lifelong", lifelong)):
             if not isinstance(flag, bool):
                 raise TypeError(f"{name} must be a bool, got {flag!r}")
-        if observation not in _OBSERVATIONS:
+        for name, value, choices in (
+            ("observation", observation, OBSERVATIONS),
+            ("on_delivery", "park" if on_delivery is None else on_delivery, DELIVERY_MODES),
+            ("starts", starts, START_MODES),
+        ):
+            if not isinstance(value, str) or value not in choices:
+                raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
+        if lifelong and on_delivery not in (None, "new_package"):
             raise ValueError(
-                f"observation must be one of {list(_OBSERVATIONS)}, got {observation!r}"
+                f"lifelong=True means on_delivery='new_package'; got on_delivery={on_delivery!r}"
             )
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
+        if physics and num_robots > MAX_PHYSICS_ROBOTS:
+            raise ValueError(
+                f"the physics world takes at most {MAX_PHYSICS_ROBOTS} robots, got {num_robots}"
+            )
+        if physics and on_delivery == "leave":
+            raise ValueError(
+                "on_delivery='leave' is for the grid twin: in the physics world a robot's "
+                "body cannot leave the floor yet; use 'park' or 'new_package'"
+            )
+        if observation == "global" and num_robots > MAX_GLOBAL_OBSERVATION_ROBOTS:
+            raise ValueError(
+                f"observation='global' takes at most {MAX_GLOBAL_OBSERVATION_ROBOTS} robots "
+                f"(each robot's copy holds 4 numbers per robot: {num_robots} robots would need "
+                f"{32 * num_robots**2 / 2**20:,.0f} MiB a step); use 'local' or 'neighbours'"
+            )
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.num_robots = int(num_robots)
         self.physics = physics
-        self.lifelong = lifelong
+        self.on_delivery = "new_package" if lifelong else on_delivery or "park"
         self.observation = observation
         self.render_mode = render_mode
         if max_cycles is None:
@@ -166,38 +224,36 @@ class WarehouseFleetEnv(ParallelEnv):
         self.corner_follows = corner_follows_are_safe(
             2 * self.config.robot_radius / self.config.cell_size
         )
-        self.starts = self._start_cells()
-        # Every draw must find a cell: at a reset, away from the starts; in a lifelong
-        # episode, away from the other robots and their packages wherever they stand.
-        targets = set(self.grid.target_cells)
-        needed, room = self.num_robots, len(targets - set(self.starts))
-        if lifelong:
-            needed, room = 2 * self.num_robots - 1, len(targets)
-        if room < needed:
-            where = (
-                " (lifelong: one for every robot and package but the one drawn)"
-                if lifelong
-                else " away from the starts"
-            )
-            raise ValueError(
-                f"{self.num_robots} robots need {needed} package cells{where}; "
-                f"this floor has {room}"
-            )
+        if starts == "auto":
+            starts = "layout" if getattr(self.grid, "starts_marked", True) else "random"
+        self.starts_mode = starts
+        cols = self.grid.cols
+        self._targets = np.array([r * cols + c for r, c in self.grid.target_cells], np.int64)
+        self._reachable = np.array(sorted(r * cols + c for r, c in self.grid.reachable), np.int64)
+        self._check_room()
 
         self.possible_agents = [f"robot_{i}" for i in range(self.num_robots)]
         self.agents: list[str] = []
         self._index = {agent: i for i, agent in enumerate(self.possible_agents)}
-        rows, cols = self.grid.rows, self.grid.cols
+        rows = self.grid.rows
         self._local_space = spaces.MultiDiscrete([rows, cols, rows, cols])
-        self.state_space = spaces.MultiDiscrete([rows, cols, rows, cols] * self.num_robots)
+        self._neighbours_space = spaces.MultiDiscrete([rows, cols, rows, cols, 16])
         self._action_space = spaces.Discrete(FLEET_ACTIONS)
+        n = self.num_robots
+        self.state_space = (
+            spaces.MultiDiscrete([rows, cols, rows, cols] * n)
+            if n <= MAX_GLOBAL_OBSERVATION_ROBOTS
+            else None
+        )
 
         self.np_random, _ = seeding.np_random(None)
-        self._cells: list[Cell] = []
-        self._packages: list[Cell] = []
-        self._parked = np.zeros(self.num_robots, dtype=bool)
-        self._deliveries = np.zeros(self.num_robots, dtype=np.int64)
+        self._cells = np.zeros((n, 2), dtype=np.int64)
+        self._packages = np.zeros((n, 2), dtype=np.int64)
+        self._parked = np.zeros(n, dtype=bool)
+        self._on_floor = np.ones(n, dtype=bool)
+        self._deliveries = np.zeros(n, dtype=np.int64)
         self._steps = 0
+        self._distances: DistanceMaps | None = None
         self.world: BatchedPhysicsWorld | None = None
         self._renderer = WarehouseRenderer.for_grid(
             self.grid, cell_px=cell_px, render_fps=self.metadata["render_fps"]
@@ -205,9 +261,60 @@ class WarehouseFleetEnv(ParallelEnv):
         if render_mode == "rgb_array":
             self._renderer.check_frame_size()
 
+    # ------------------------------------------------------------ the public state
+    @property
+    def lifelong(self) -> bool:
+        """Whether a robot gets a new package on delivery (``on_delivery="new_package"``)."""
+        return self.on_delivery == "new_package"
+
+    @property
+    def starts(self) -> list[tuple[int, int]]:
+        """The start cells of ``starts="layout"`` (the robots' cells at every reset)."""
+        return [tuple(cell) for cell in self._layout_starts().tolist()]
+
+    @property
+    def robot_cells(self) -> np.ndarray:
+        """Each robot's ``(row, col)``, ``(N, 2)`` int64, read-only (a robot that left the
+        floor keeps the cell it left from)."""
+        return _read_only(self._cells)
+
+    @property
+    def package_cells(self) -> np.ndarray:
+        """Each robot's package ``(row, col)``, ``(N, 2)`` int64, read-only."""
+        return _read_only(self._packages)
+
+    @property
+    def parked(self) -> np.ndarray:
+        """Which robots are parked on their delivered package (``on_delivery="park"``)."""
+        return _read_only(self._parked)
+
+    @property
+    def on_floor(self) -> np.ndarray:
+        """Which robots are on the floor (all but those that left, ``on_delivery="leave"``)."""
+        return _read_only(self._on_floor)
+
+    @property
+    def deliveries(self) -> np.ndarray:
+        """Packages each robot delivered this episode, ``(N,)`` int64, read-only."""
+        return _read_only(self._deliveries)
+
+    @property
+    def steps(self) -> int:
+        """Joint steps taken this episode."""
+        return self._steps
+
+    @property
+    def distances(self) -> DistanceMaps:
+        """Shortest-path distances on this floor to the packages (shared with planners)."""
+        if self._distances is None:
+            self._distances = DistanceMaps(self.grid)
+        return self._distances
+
     def observation_space(self, agent: str) -> spaces.MultiDiscrete:
         """The observation space of ``agent`` (the same object on every call)."""
         self._checked_agent(agent)
+        if self.observation == "neighbours":
+            return self._neighbours_space
         return self._local_space if self.observation == "local" else self.state_space
 
     def action_space(self, agent: str) -> spaces.Discrete:
@@ -218,78 +325,107 @@ class WarehouseFleetEnv(ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
-        """Every robot on its start cell with a new package; ``seed`` seeds the generator.
+        """Every robot on a start cell with a new package; ``seed`` seeds the generator.
 
         ``options`` are accepted and ignored (PettingZoo's test suites pass some).
         """
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
+        rng = self.np_random
+        n, cols = self.num_robots, self.grid.cols
+        if self.starts_mode == "random":  # the packages first, then the starts off them
+            packages = self._targets[rng.choice(len(self._targets), n, replace=False)]
+            allowed = self._reachable[~np.isin(self._reachable, packages)]
+            here = allowed[rng.choice(len(allowed), n, replace=False)]
+        else:
+            here = self._layout_starts_index
+            allowed = self._targets[~np.isin(self._targets, here)]
+            packages = allowed[rng.choice(len(allowed), n, replace=False)]
+        self._cells = np.stack(np.divmod(here, cols), axis=1)
+        self._packages = np.stack(np.divmod(packages, cols), axis=1)
         self.agents = list(self.possible_agents)
-        self._cells = list(self.starts)
-        self._packages = []
-        for i in range(self.num_robots):
-            self._packages.append(self._draw_package(i))
         self._parked[:] = False
+        self._on_floor[:] = True
         self._deliveries[:] = 0
         self._steps = 0
         if self.physics:
             self.world = BatchedPhysicsWorld(
                 self.grid,
                 self.config,
-                self._cells,
-                np.zeros(self.num_robots, dtype=np.int64),
+                [tuple(cell) for cell in self._cells.tolist()],
+                np.zeros(n, dtype=np.int64),
                 record_path=True,
             )
-        refused = [False] * self.num_robots
-        infos = self._infos(refused, np.zeros(self.num_robots), None)
-        return self._observations(), infos
+        live = np.arange(n)
+        refused = np.zeros(n, dtype=bool)
+        return self._observations(live), self._infos(live, refused, None, None)
 
     def step(self, actions: dict[str, int]) -> tuple[dict, dict, dict, dict, dict]:
         """Move every live robot by its action under the traffic rule."""
         if not self.agents:
             raise ValueError("the episode is over (no live robots): call reset()")
-        joint = self._checked_actions(actions)
-        ends, refused = resolve_moves(
-            self.grid, self._cells, joint, self._parked, corner_follows=self.corner_follows
-        )
-        ends = [Cell(r, c) for r, c in ends.tolist()]
-        snap_errors, gaps = np.zeros(self.num_robots), None
+        live = self._live_indices()
+        joint = self._checked_actions(actions, live)
+        cols = self.grid.cols
+        here = self._cells[:, 0] * cols + self._cells[:, 1]
+        if self._on_floor.all():
+            moved, refused = granted_moves(
+                self.grid, here, joint, self._parked, corner_follows=self.corner_follows
+            )
+        else:  # robots that left are no obstacles
+            floor = self._on_floor
+            moved, refused = here.copy(), np.zeros(self.num_robots, dtype=bool)
+            moved[floor], refused[floor] = granted_moves(
+                self.grid, here[floor], joint[floor], self._parked[floor],
+                corner_follows=self.corner_follows,
+            )  # fmt: skip
+        ends = np.empty_like(self._cells)
+        np.divmod(moved, cols, out=(ends[:, 0], ends[:, 1]))
+        snap_errors = gaps = None
         if self.physics:
             ends, snap_errors, gaps = self._drive(joint, ends)
         self._cells = ends
         self._steps += 1
-        rewards = {}
-        terminations = {}
-        for agent in self.agents:
-            i = self._index[agent]
-            arrived = ends[i] == self._packages[i]
-            rewards[agent] = 1.0 if arrived else 0.0
-            if arrived:
-                self._deliveries[i] += 1
-                if self.lifelong:
-                    self._packages[i] = self._draw_package(i)
-                else:
-                    self._parked[i] = True
-            terminations[agent] = bool(arrived and not self.lifelong)
+
+        arrived = np.zeros(self.num_robots, dtype=bool)
+        arrived[live] = (ends[live] == self._packages[live]).all(axis=1)
+        delivered = np.flatnonzero(arrived)
+        self._deliveries[delivered] += 1
+        if self.on_delivery == "new_package":
+            self._draw_new_packages(delivered)
+        else:
+            self._parked[delivered] = self.on_delivery == "park"
+            self._on_floor[delivered] = self.on_delivery == "park"
+        agents = self.agents
+        arrived_live = arrived[live].tolist()
+        rewards = dict(zip(agents, map(float, arrived_live), strict=True))
+        ends_robot = arrived_live if not self.lifelong else [False] * len(agents)
+        terminations = dict(zip(agents, ends_robot, strict=True))
         truncated = self._steps >= self.max_cycles
-        truncations = {agent: truncated and not terminations[agent] for agent in self.agents}
-        observations = self._observations()
-        infos = self._infos(refused, snap_errors, gaps)
-        self.agents = [
-            agent for agent in self.agents if not (terminations[agent] or truncations[agent])
-        ]
+        truncations = {
+            agent: truncated and not ended for agent, ended in zip(agents, ends_robot, strict=True)
+        }
+        observations = self._observations(live)
+        infos = self._infos(live, refused, snap_errors, gaps)
+        if truncated:
+            self.agents = []
+        elif not self.lifelong and delivered.size:
+            self.agents = [agent for agent, ended in zip(agents, ends_robot, strict=True)
+                           if not ended]  # fmt: skip
         return observations, rewards, terminations, truncations, infos
 
     def render(self) -> np.ndarray | str | None:
         """``"rgb_array"``: every robot in its colour with its package; ``"ansi"``: text."""
         if self.render_mode is None:
             return None
-        if not self._cells:
+        if not self._steps and not self.agents:
             raise ValueError("call reset() before render()")
         if self.render_mode == "ansi":
             return self._ansi()
-        positions = self.world.positions().tolist() if self.world is not None else self._cells
-        return self._renderer.fleet_rgb_array(positions, self._packages)
+        positions = (
+            self.world.positions().tolist() if self.world is not None else self._cells.tolist()
+        )
+        return self._renderer.fleet_rgb_array(positions, self._package_list())
 
     def move_frames(self) -> list[np.ndarray]:
         """The frames of the last step's motion in the physics world, one per physics step
@@ -301,8 +437,9 @@ class WarehouseFleetEnv(ParallelEnv):
         if self.world is None:
             raise ValueError("only the physics world (physics=True) has motion frames")
         paths = self.world.last_paths  # (K, steps, 2)
+        packages = self._package_list()
         return [
-            self._renderer.fleet_rgb_array(paths[:, step].tolist(), self._packages)
+            self._renderer.fleet_rgb_array(paths[:, step].tolist(), packages)
             for step in range(paths.shape[1])
         ]
 
@@ -312,26 +449,131 @@ class WarehouseFleetEnv(ParallelEnv):
 
     def state(self) -> np.ndarray:
         """The global picture: every robot's ``[row, col, package_row, package_col]``."""
-        return np.array(
-            [v for cell, package in zip(self._cells, self._packages, strict=True)
-             for v in (*cell, *package)],
-            dtype=np.int64,
-        )  # fmt: skip
+        return np.concatenate([self._cells, self._packages], axis=1).ravel()
 
     # ------------------------------------------------------------------ helpers
+    def _check_room(self) -> None:
+        """Refuse a fleet the floor has no start or package cells for, with the counts."""
+        n = self.num_robots
+        if self.starts_mode == "layout":
+            self._layout_starts_index = self._layout_starts() @ np.array([self.grid.cols, 1])
+        elif len(self._reachable) < 2 * n:
+            raise ValueError(
+                f"{n:,} robots need {2 * n:,} cells a robot can reach (random starts, off the "
+                f"packages); this floor has {len(self._reachable):,}"
+            )
+        if self.lifelong:
+            needed, room = 2 * n - 1, len(self._targets)
+            where = " (lifelong: one for every robot and package but the one drawn)"
+        elif self.starts_mode == "layout":
+            needed = n
+            room = int((~np.isin(self._targets, self._layout_starts_index)).sum())
+            where = " away from the starts"
+        else:  # random starts stand off the packages
+            needed, room, where = n, len(self._targets), ""
+        if room < needed:
+            raise ValueError(
+                f"{n:,} robots need {needed:,} package cells{where}; this floor has {room:,}"
+            )
+
+    def _layout_starts(self) -> np.ndarray:
+        """A fleet layout's ``S`` cells; else the floor's start, then the other cells robots
+        can reach in reading order; ``(N, 2)``."""
+        n = self.num_robots
+        marked = self.grid.starts
+        if len(marked) > 1:
+            if len(marked) < n:
+                raise ValueError(
+                    f"{n} robots need {n} start cells; the layout marks {len(marked)} ('S')"
+                )
+            return np.array(marked[:n], dtype=np.int64).reshape(n, 2)
+        start = self.grid.start[0] * self.grid.cols + self.grid.start[1]
+        others = self._reachable[self._reachable != start]
+        if len(others) + 1 < n:
+            raise ValueError(
+                f"{n} robots need {n} start cells; this floor has {len(others) + 1} cells a "
+                "robot can reach"
+            )
+        index = np.concatenate([[start], others[: n - 1]])
+        return np.stack(np.divmod(index, self.grid.cols), axis=1)
+
+    def _draw_new_packages(self, robots: np.ndarray) -> None:
+        """New packages for ``robots``, each uniform over the package cells on no robot and
+        no other robot's package (rejection sampling, then an exact draw if it keeps missing)."""
+        if not robots.size:
+            return
+        cols = self.grid.cols
+        taken = np.zeros(self.grid.rows * cols, dtype=bool)
+        taken[self._cells[:, 0] * cols + self._cells[:, 1]] = True
+        keep = np.ones(self.num_robots, dtype=bool)
+        keep[robots] = False
+        taken[self._packages[keep, 0] * cols + self._packages[keep, 1]] = True
+        rng = self.np_random
+        for robot in robots.tolist():
+            for _ in range(8):
+                cell = self._targets[rng.integers(len(self._targets))]
+                if not taken[cell]:
+                    break
+            else:
+                free = self._targets[~taken[self._targets]]
+                cell = free[rng.integers(len(free))]
+            taken[cell] = True
+            self._packages[robot] = divmod(int(cell), cols)
+
+    def _live_indices(self) -> np.ndarray:
+        if len(self.agents) == self.num_robots:
+            return np.arange(self.num_robots)
+        return np.fromiter(map(self._index.__getitem__, self.agents), np.int64, len(self.agents))
+
+    def _checked_actions(self, actions: object, live: np.ndarray) -> np.ndarray:
+        """The joint action (WAIT for robots not live), or an error naming the robot."""
+        if not isinstance(actions, dict):
+            raise TypeError(
+                f"actions must be a dict of robot to action, got {type(actions).__name__}"
+            )
+        joint = np.full(self.num_robots, WAIT, dtype=np.int64)
+        # The usual case first: every live robot, in order, with a plain integer.
+        if list(actions) == self.agents and set(map(type, actions.values())) <= _INTEGER_TYPES:
+            values = np.fromiter(actions.values(), np.int64, len(actions))
+            if ((values >= 0) & (values < FLEET_ACTIONS)).all():
+                joint[live] = values
+                return joint
+        unknown = [agent for agent in actions if agent not in self.agents]
+        if unknown:
+            raise ValueError(
+                f"actions for robots that are not live: {unknown}; live: {self.agents}"
+            )
+        missing = [agent for agent in self.agents if agent not in actions]
+        if missing:
+            raise ValueError(f"no action for {missing}")
+        for agent, action in actions.items():
+            joint[self._index[agent]] = self._checked_action(agent, action)
+        return joint
+
+    def _checked_action(self, agent: str, action: object) -> int:
+        """``action`` as an int 0..4, or a ``TypeError``/``ValueError`` naming ``agent``."""
+        is_integer = (
+            isinstance(action, (int, np.integer)) and not isinstance(action, np.timedelta64)
+        ) or (isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu")
+        if isinstance(action, (bool, np.bool_)) or not is_integer:
+            raise TypeError(f"{agent}'s action must be an integer 0..4, got {action!r}")
+        if not 0 <= int(action) < FLEET_ACTIONS:
+            raise ValueError(f"{agent}'s action must be 0..4 (4 is WAIT), got {action!r}")
+        return int(action)
+
+    def _checked_agent(self, agent: str) -> None:
+        if agent not in self._index:
+            raise ValueError(f"unknown robot {agent!r}; the robots are {self.possible_agents}")
+
     def _drive(
-        self, joint: list[int], ends: list[Cell]
-    ) -> tuple[list[Cell], np.ndarray, np.ndarray]:
+        self, joint: np.ndarray, ends: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Drive the granted moves (and bumps into walls) in the physics; hold the rest."""
-        cells = np.array(self._cells, dtype=np.int64)
-        moves = np.array([a if a != WAIT else 0 for a in joint], dtype=np.int64)
-        aims = cells + ACTION_DELTA_ARRAY[moves]
-        granted = np.array([end != cell for end, cell in zip(ends, self._cells, strict=True)])
+        cells = self._cells
+        aims = cells + ACTION_DELTA_ARRAY[np.where(joint == WAIT, 0, joint)]
+        granted = (ends != cells).any(axis=1)
         # A move the floor refuses is driven too: the robot bumps and drives back, as alone.
-        bumps = np.array(
-            [a != WAIT and not self._parked[i] and self.grid.move(cell, a) == cell
-             for i, (cell, a) in enumerate(zip(self._cells, joint, strict=True))]
-        )  # fmt: skip
+        bumps = moves_refused_by_floor(self.grid, cells, joint, self._parked)
         hold = ~(granted | bumps)
         aims[hold] = cells[hold]
         body_cells, snap_errors = self.world.move(aims)
@@ -342,99 +584,89 @@ class WarehouseFleetEnv(ParallelEnv):
             apart = np.linalg.norm(paths[:, None] - paths[None, :], axis=-1).min(axis=-1)
             np.fill_diagonal(apart, np.inf)
             gaps = apart.min(axis=1) - diameter
-        return [Cell(int(r), int(c)) for r, c in body_cells], snap_errors, gaps
+        return np.asarray(body_cells, dtype=np.int64).reshape(-1, 2), snap_errors, gaps
 
-    def _checked_actions(self, actions: object) -> list[int]:
-        if not isinstance(actions, dict):
-            raise TypeError(
-                f"actions must be a dict of robot to action, got {type(actions).__name__}"
-            )
-        unknown = [agent for agent in actions if agent not in self.agents]
-        if unknown:
-            raise ValueError(
-                f"actions for robots that are not live: {unknown}; live: {self.agents}"
-            )
-        missing = [agent for agent in self.agents if agent not in actions]
-        if missing:
-            raise ValueError(f"no action for {missing}")
-        joint = [WAIT] * self.num_robots
-        for agent, action in actions.items():
-            is_integer = isinstance(action, (int, np.integer)) or (
-                isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu"
-            )
-            if isinstance(action, (bool, np.bool_)) or not is_integer:
-                raise TypeError(f"{agent}'s action must be an integer 0..4, got {action!r}")
-            if not 0 <= int(action) < FLEET_ACTIONS:
-                raise ValueError(f"{agent}'s action must be 0..4 (4 is WAIT), got {action!r}")
-            joint[self._index[agent]] = int(action)
-        return joint
-
-    def _checked_agent(self, agent: str) -> None:
-        if agent not in self._index:
-            raise ValueError(f"unknown robot {agent!r}; the robots are {self.possible_agents}")
-
-    def _start_cells(self) -> list[Cell]:
-        """A fleet layout's ``S`` cells; else the floor's start, then the other cells robots
-        can reach in reading order."""
-        marked = self.grid.starts
-        if len(marked) > 1:
-            if len(marked) < self.num_robots:
-                raise ValueError(
-                    f"{self.num_robots} robots need {self.num_robots} start cells; the layout "
-                    f"marks {len(marked)} ('S')"
-                )
-            return list(marked[: self.num_robots])
-        start = self.grid.start
-        others = sorted(cell for cell in self.grid.reachable if cell != start)
-        if len(others) + 1 < self.num_robots:
-            raise ValueError(
-                f"{self.num_robots} robots need {self.num_robots} start cells; this floor has "
-                f"{len(others) + 1} cells a robot can reach"
-            )
-        return [start, *others[: self.num_robots - 1]]
-
-    def _draw_package(self, robot: int) -> Cell:
-        taken = set(self._cells) | {p for i, p in enumerate(self._packages) if i != robot}
-        choices = [cell for cell in self.grid.target_cells if cell not in taken]
-        return choices[int(self.np_random.integers(len(choices)))]
-
-    def _observations(self) -> dict[str, np.ndarray]:
+    def _observations(self, live: np.ndarray) -> dict[str, np.ndarray]:
         if self.observation == "global":
             state = self.state()
             return {agent: state.copy() for agent in self.agents}
-        return {
-            agent: np.array(
-                (*self._cells[self._index[agent]], *self._packages[self._index[agent]]),
-                dtype=np.int64,
-            )
-            for agent in self.agents
-        }
+        columns = [self._cells[live], self._packages[live]]
+        if self.observation == "neighbours":
+            columns.append(self._neighbour_masks(live)[:, None])
+        rows = np.concatenate(columns, axis=1)
+        return dict(zip(self.agents, rows, strict=True))
+
+    def _neighbour_masks(self, robots: np.ndarray) -> np.ndarray:
+        """The :data:`NEIGHBOUR_BITS` mask of adjacent cells holding a robot on the floor."""
+        cols = self.grid.cols
+        occupied = np.zeros(self.grid.rows * cols + 1, dtype=bool)
+        on = self._cells[self._on_floor]
+        occupied[on[:, 0] * cols + on[:, 1]] = True
+        here = self._cells[robots, 0] * cols + self._cells[robots, 1]
+        table = neighbour_table(self.grid)
+        mask = np.zeros(len(robots), dtype=np.int64)
+        for action, bit in enumerate(NEIGHBOUR_BITS):
+            there = table[here, action]
+            mask |= np.where((there != here) & occupied[there], bit, 0)
+        return mask
 
     def _infos(
-        self, refused: list[bool], snap_errors: np.ndarray, gaps: np.ndarray | None
+        self,
+        live: np.ndarray,
+        refused: np.ndarray,
+        snap_errors: np.ndarray | None,
+        gaps: np.ndarray | None,
     ) -> dict[str, dict[str, Any]]:
-        infos = {}
-        for agent in self.agents:
-            i = self._index[agent]
-            info = {
-                "optimal_steps": self.grid.optimal_steps(self._cells[i], self._packages[i]),
-                "refused": bool(refused[i]),
-                "deliveries": int(self._deliveries[i]),
+        cols = self.grid.cols
+        cells, packages = self._cells[live], self._packages[live]
+        optimal = self.distances.lookup(
+            cells[:, 0] * cols + cells[:, 1], packages[:, 0] * cols + packages[:, 1]
+        )
+        columns = [optimal.tolist(), refused[live].tolist(), self._deliveries[live].tolist()]
+        if not self.physics:
+            return {
+                agent: {"optimal_steps": o, "refused": r, "deliveries": d}
+                for agent, o, r, d in zip(self.agents, *columns, strict=True)
             }
-            if self.physics:
-                info["snap_error"] = float(snap_errors[i])
-                info["min_gap"] = float(gaps[i]) if gaps is not None else float("inf")
-            infos[agent] = info
-        return infos
+        if snap_errors is None:  # at a reset
+            snap_errors, gaps = np.zeros(self.num_robots), np.full(self.num_robots, np.inf)
+        columns += [snap_errors[live].astype(float).tolist(), gaps[live].astype(float).tolist()]
+        return {
+            agent: {"optimal_steps": o, "refused": r, "deliveries": d, "snap_error": s,
+                    "min_gap": g}
+            for agent, o, r, d, s, g in zip(self.agents, *columns, strict=True)
+        }  # fmt: skip
+
+    def _package_list(self) -> list[tuple[int, int]]:
+        return [tuple(p) for p in self._packages.tolist()]
 
     def _ansi(self) -> str:
         board = [["#" if (r, c) in self.grid.shelves else "_" for c in range(self.grid.cols)]
                  for r in range(self.grid.rows)]  # fmt: skip
-        for i, package in enumerate(self._packages):
-            board[package[0]][package[1]] = chr(ord("a") + i % 26)
-        for i, cell in enumerate(self._cells):
-            board[cell[0]][cell[1]] = str(i % 10)
+        for i, (row, col) in enumerate(self._packages.tolist()):
+            if self._on_floor[i]:
+                board[row][col] = chr(ord("a") + i % 26)
+        for i, (row, col) in enumerate(self._cells.tolist()):
+            if self._on_floor[i]:
+                board[row][col] = str(i % 10)
         return "\n".join(" ".join(row) for row in board)
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
+class _FleetAEC(parallel_to_aec_wrapper):
+    """PettingZoo's AEC form of the fleet, refusing a bad action when it is given (the
+    joint step happens at the last robot's turn, too late to refuse it cleanly)."""
+
+    def step(self, action: int | None) -> None:
+        agent = self.agent_selection
+        if not (self.terminations[agent] or self.truncations[agent]):
+            action = self.env._checked_action(agent, action)
+        super().step(action)
 
 
 def parallel_env(**kwargs: Any) -> WarehouseFleetEnv:
@@ -444,4 +676,4 @@ def parallel_env(**kwargs: Any) -> WarehouseFleetEnv:
 
 def env(**kwargs: Any) -> AECEnv:
     """The fleet as a PettingZoo AEC environment: robots act in turn, moves happen together."""
-    return parallel_to_aec(parallel_env(**kwargs))
+    return OrderEnforcingWrapper(_FleetAEC(parallel_env(**kwargs)))

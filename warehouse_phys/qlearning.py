@@ -40,10 +40,11 @@ from warehouse_phys.atomic import atomic_write
 from warehouse_phys.grid import MAX_SIDE, Cell, WarehouseGrid
 from warehouse_phys.layouts import PRESETS, preset_ids, preset_name
 from warehouse_phys.npzfile import ArchiveError, NpzReader, to_array
-from warehouse_phys.traffic import MAX_ROBOTS
 
 #: Largest metadata string read from a table file [bytes].
 METADATA_MAX_BYTES = 2**20
+#: Most robots a table file may name (a sanity bound on the metadata).
+MAX_TABLE_ROBOTS = 1_000_000
 #: The environments a table may name: the package's ids and, for a table trained on
 #: an environment made without ``gym.make``, its class names.
 _TABLE_ENV_IDS = frozenset(
@@ -589,9 +590,10 @@ def _check_metadata(metadata: Any, *, where: str) -> None:
         if isinstance(value, bool) or not isinstance(value, kind):
             raise error(f"{where}: metadata {name!r} has the wrong type: {_short(value)}")
     robots = metadata.get(_FLEET_FIELD, 1)
-    if isinstance(robots, bool) or not isinstance(robots, int) or not 1 <= robots <= MAX_ROBOTS:
+    is_count = isinstance(robots, int) and not isinstance(robots, bool)
+    if not is_count or not 1 <= robots <= MAX_TABLE_ROBOTS:
         raise error(
-            f"{where}: metadata {_FLEET_FIELD!r} is not 1 to {MAX_ROBOTS}: {_short(robots)}"
+            f"{where}: metadata {_FLEET_FIELD!r} is not 1 to {MAX_TABLE_ROBOTS:,}: {_short(robots)}"
         )
     if metadata["format"] != TABLE_FORMAT:
         raise error(f"{where}: not a {TABLE_FORMAT} file (format {_short(metadata['format'])})")

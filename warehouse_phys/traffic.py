@@ -45,8 +45,6 @@ from warehouse_phys.grid import ACTION_DELTAS, WarehouseGrid
 WAIT = 4
 #: Number of fleet actions: the four moves and WAIT.
 FLEET_ACTIONS = 5
-#: Most robots in one fleet.
-MAX_ROBOTS = 64
 
 #: Closest two robots' centres come in a corner follow [cells]: sqrt(0.5).
 CORNER_FOLLOW_DISTANCE = math.sqrt(0.5)
@@ -67,9 +65,15 @@ def neighbour_table(grid: WarehouseGrid) -> np.ndarray:
     int64 array of cell indices (``row * cols + col``): actions 0..3 as
     :meth:`WarehouseGrid.move` (a move into a wall or a shelf stays), 4 (:data:`WAIT`)
     stays. Floors of the same size and layout share one table."""
+    return _floor_tables(grid)[0]
+
+
+def _floor_tables(grid: WarehouseGrid) -> tuple[np.ndarray, np.ndarray]:
+    """The floor's neighbour table and a scratch array over its cells holding
+    :data:`_NOBODY` between calls (so a joint step touches only its robots' cells)."""
     key = (grid.rows, grid.cols, grid.layout)
-    table = _NEIGHBOUR_TABLES.pop(key, None)
-    if table is None:
+    tables = _NEIGHBOUR_TABLES.pop(key, None)
+    if tables is None:
         rows, cols = grid.rows, grid.cols
         free = np.ones((rows, cols), dtype=bool)
         if grid.shelves:
@@ -85,10 +89,11 @@ def neighbour_table(grid: WarehouseGrid) -> np.ndarray:
             allowed[inside] = free[to_row[inside], to_col[inside]]
             table[:, action] = np.where(allowed, to_row * cols + to_col, table[:, WAIT])
         table.flags.writeable = False
-    _NEIGHBOUR_TABLES[key] = table  # most recently used last
+        tables = table, np.full(rows * cols, _NOBODY, dtype=np.int64)
+    _NEIGHBOUR_TABLES[key] = tables  # most recently used last
     while len(_NEIGHBOUR_TABLES) > _NEIGHBOUR_TABLES_KEPT:
         del _NEIGHBOUR_TABLES[next(iter(_NEIGHBOUR_TABLES))]
-    return table
+    return tables
 
 
 def resolve_moves(
@@ -118,44 +123,60 @@ def resolve_moves(
             is not 0..4.
     """
     here, act, parked = _checked_joint(grid, cells, actions, parked)
+    ends, refused = granted_moves(grid, here, act, parked, corner_follows=corner_follows)
+    rows_cols = np.empty((len(ends), 2), dtype=np.int64)
+    np.divmod(ends, grid.cols, out=(rows_cols[:, 0], rows_cols[:, 1]))
+    return rows_cols, refused
+
+
+def granted_moves(
+    grid: WarehouseGrid,
+    here: np.ndarray,
+    actions: np.ndarray,
+    parked: np.ndarray,
+    *,
+    corner_follows: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`resolve_moves` on cell indices (``row * cols + col``), without checking its
+    arguments: for callers that keep them valid (the fleet). Returns the cell index each
+    robot ends on and the refused flags."""
     n = len(here)
-    table = neighbour_table(grid)
-    act = np.where(parked, WAIT, act)
+    table, scratch = _floor_tables(grid)
+    act = np.where(parked, WAIT, actions)
     wanted = table[here, act]
     moving = wanted != here
     robots = np.arange(n)
 
     # Rule 2: the lowest-numbered of the robots heading for one cell goes.
-    claim = np.full(table.shape[0], n, dtype=np.int64)
-    np.minimum.at(claim, wanted[moving], robots[moving])
-    moving &= claim[wanted] == robots
+    heading = wanted[moving]
+    np.minimum.at(scratch, heading, robots[moving])
+    moving &= scratch[wanted] == robots
+    scratch[heading] = _NOBODY
     # Rules 3 and 4. Robot i heads for robot j's cell: i goes only if j goes, they do
     # not swap and, without corner follows, j leaves the same way. After rule 2 at most
     # one robot heads for each cell, so "i waits for j" links form chains and cycles:
     # i goes iff every robot down its chain (round its cycle) may go, an AND along the
     # links taken by pointer doubling.
-    occupant = claim  # reused: every cell is claimed by n or a robot of ``wanted``
-    occupant.fill(-1)
-    occupant[here] = robots
-    ahead = np.where(moving, occupant[wanted], -1)
-    follows = ahead >= 0
+    scratch[here] = robots
+    ahead = np.where(moving, scratch[wanted], _NOBODY)
+    scratch[here] = _NOBODY
+    follows = ahead != _NOBODY
     leader = np.where(follows, ahead, robots)
     may_go = moving.copy()
-    may_go[follows] &= moving[leader[follows]] & (wanted[leader[follows]] != here[follows])
-    if not corner_follows:
-        may_go[follows] &= act[leader[follows]] == act[follows]
-    for _ in range(max(1, n).bit_length()):
-        if np.array_equal(leader[leader], leader):
+    if follows.any():
+        ahead = leader[follows]
+        may_go[follows] &= moving[ahead] & (wanted[ahead] != here[follows])
+        if not corner_follows:
+            may_go[follows] &= act[ahead] == act[follows]
+        for _ in range(max(1, n).bit_length()):
+            if np.array_equal(leader[leader], leader):
+                may_go &= may_go[leader]
+                break
             may_go &= may_go[leader]
-            break
-        may_go &= may_go[leader]
-        leader = leader[leader]
-    else:  # a cycle: 2**bit_length(n) >= n links, round it and beyond
-        may_go &= may_go[leader]
-
-    ends = np.empty((n, 2), dtype=np.int64)
-    np.divmod(np.where(may_go, wanted, here), grid.cols, out=(ends[:, 0], ends[:, 1]))
-    return ends, (wanted != here) & ~may_go
+            leader = leader[leader]
+        else:  # a cycle: 2**bit_length(n) >= n links, round it and beyond
+            may_go &= may_go[leader]
+    return np.where(may_go, wanted, here), (wanted != here) & ~may_go
 
 
 def moves_refused_by_floor(
@@ -206,6 +227,8 @@ def _checked_joint(
     return here, act.astype(np.int64, copy=False), parked
 
 
-_NEIGHBOUR_TABLES: dict[tuple, np.ndarray] = {}
+_NEIGHBOUR_TABLES: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+#: "No robot" in the scratch array: above every robot number.
+_NOBODY = np.iinfo(np.int64).max
 #: Floors whose neighbour tables are kept (a 500 x 140 floor's is 2.8 MB).
 _NEIGHBOUR_TABLES_KEPT = 16
