@@ -89,11 +89,11 @@ def test_the_maps_never_exceed_max_bytes_and_the_least_recently_used_go_first():
 
 
 def test_a_request_for_more_goals_than_fit_is_refused_and_changes_nothing():
-    grid = WarehouseGrid(4, 5)
-    maps = DistanceMaps(grid, max_bytes=3 * 2 * 21)
+    grid = WarehouseGrid.from_layout(["S...#", ".....", ".....", "....."])
+    maps = DistanceMaps(grid, max_bytes=3 * 2 * 20)
     maps.prepare(np.array([6, 7]))
     with pytest.raises(ValueError, match="max_bytes"):
-        maps.prepare(np.array([1, 2, 3, 4]))
+        maps.prepare(np.array([1, 2, 3, 5]))
     assert sorted(g for g in maps._goal_of_row.tolist() if g >= 0) == [6, 7]
 
 
@@ -127,3 +127,14 @@ def test_a_path_longer_than_sixteen_bits_is_refused_not_wrapped(monkeypatch):
     maps = distances.DistanceMaps(grid)
     with pytest.raises(ValueError, match="16-bit"):
         maps.lookup(np.array([0]), np.array([24]))
+
+
+def test_a_floor_without_shelves_needs_no_maps():
+    grid = WarehouseGrid(30, 40)
+    maps = DistanceMaps(grid)
+    cells = np.arange(grid.rows * grid.cols)
+    goals = np.full_like(cells, 5 * 40 + 7)
+    np.testing.assert_array_equal(maps.lookup(cells, goals), _expected(grid, cells, goals))
+    assert maps.maps == maps.nbytes == 0
+    with pytest.raises(ValueError, match="goals must be cell indices"):
+        maps.prepare(np.array([grid.rows * grid.cols]))

@@ -40,6 +40,9 @@ class DistanceMaps:
     than ``max_bytes`` (each takes ``2 * (free cells + 1)`` bytes). A single request for
     more goals than fit is refused with a ``ValueError`` that names ``max_bytes``.
 
+    On a floor without shelves the distance is the Manhattan distance, computed on the
+    fly: no map is built or kept.
+
     Distances are kept in 16 bits: a goal whose map would hold a shortest path longer
     than 65,534 moves (only a snake-like maze of more than 65,534 cells has one) is
     refused with a ``ValueError`` when its map is built, never wrapped around.
@@ -55,6 +58,8 @@ class DistanceMaps:
         if isinstance(max_bytes, bool) or not isinstance(max_bytes, (int, np.integer)):
             raise TypeError(f"max_bytes must be an integer, got {max_bytes!r}")
         self.grid = grid
+        #: No shelves: every distance is the Manhattan distance, no map needed.
+        self._open_floor = not grid.shelves
         rows, cols = grid.rows, grid.cols
         self.n_cells = rows * cols
         free = np.ones(self.n_cells, dtype=bool)
@@ -119,17 +124,27 @@ class DistanceMaps:
             raise ValueError(f"cells {cells.shape} and goals {goals.shape} differ in shape")
         if cells.size and (cells.min() < 0 or cells.max() >= self.n_cells):
             raise ValueError(f"cells must be indices 0..{self.n_cells - 1} of this floor")
+        if self._open_floor:
+            self._check_goals(goals)
+            cell_row, cell_col = np.divmod(cells, self.grid.cols)
+            goal_row, goal_col = np.divmod(goals, self.grid.cols)
+            return np.abs(cell_row - goal_row) + np.abs(cell_col - goal_col)
         rows = self._rows_of(goals.reshape(-1))
         return (
             self._table[rows, self._column[cells.reshape(-1)]].astype(np.int64).reshape(cells.shape)
         )
 
+    def _check_goals(self, goals: np.ndarray) -> None:
+        if goals.size and (goals.min() < 0 or goals.max() >= self.n_cells):
+            raise ValueError(f"goals must be cell indices 0..{self.n_cells - 1} of this floor")
+
     def _rows_of(self, goals: np.ndarray) -> np.ndarray:
         """The table row of each goal's map, computing the missing maps first."""
         if goals.size == 0:
             return np.empty(0, dtype=np.int64)
-        if goals.min() < 0 or goals.max() >= self.n_cells:
-            raise ValueError(f"goals must be cell indices 0..{self.n_cells - 1} of this floor")
+        self._check_goals(goals)
+        if self._open_floor:
+            return np.empty(0, dtype=np.int64)
         rows = self._row_of_goal[goals]
         if (rows < 0).any():
             missing = np.unique(goals[rows < 0])

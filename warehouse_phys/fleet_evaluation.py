@@ -1,10 +1,21 @@
 """How well a fleet's policy delivers, and the baseline policies it is compared with.
 
-:func:`evaluate_fleet` plays a policy over fixed seeds and reports what traffic
-costs: packages delivered, the robots' steps against the sum of their shortest
-paths, refused moves and deadlocks. :func:`shortest_path_policy` is the
-baseline: each robot takes a move along a shortest path to its package and waits
-when that cell is taken; :func:`random_fleet_policy` acts at random.
+The multi-robot planning field's measures, over fixed seeds:
+
+- one-shot (each robot one package, ``on_delivery="park"`` or ``"leave"``):
+  :func:`evaluate_fleet` counts packages delivered, the **sum of costs** (each
+  robot's steps until it delivered, an undelivered robot counted at the time
+  limit) against the sum of shortest paths, the **makespan** (the step of the
+  last delivery, or the time limit), refused moves, waits, episodes stuck at the
+  time limit and packages **walled off** by parked robots;
+- lifelong (``on_delivery="new_package"``): :func:`evaluate_throughput` gives the
+  **throughput**, deliveries per step.
+
+:func:`compare_policies` lays several evaluations side by side and says plainly
+where a policy does worse than the shortest-path baseline or than random.
+:func:`shortest_path_policy` is that baseline: each robot takes a move along a
+shortest path to its package and waits when that cell is taken;
+:func:`random_fleet_policy` acts at random.
 """
 
 from __future__ import annotations
@@ -17,7 +28,7 @@ import numpy as np
 
 from warehouse_phys.animation import Animation
 from warehouse_phys.fleet import WarehouseFleetEnv
-from warehouse_phys.traffic import FLEET_ACTIONS, WAIT
+from warehouse_phys.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 
 #: A fleet policy: the environment, every live robot's observation and last info -> actions.
 FleetPolicy = Callable[
@@ -31,22 +42,26 @@ def shortest_path_policy(
     infos: dict[str, dict[str, Any]],
 ) -> dict[str, int]:
     """Each robot moves along a shortest path to its package (the first such move in
-    action order whose cell no robot stands on) and waits when every such cell is taken."""
-    grid = env.grid
-    state = env.state().reshape(env.num_robots, 4)
-    taken = {(int(r), int(c)) for r, c in state[:, :2]}
-    actions = {}
-    for agent, obs in observations.items():
-        row, col, p_row, p_col = (int(v) for v in obs)
-        package = (p_row, p_col)
-        here = grid.optimal_steps((row, col), package)  # distances are cached per package
-        actions[agent] = WAIT
-        for action in range(4):
-            cell = grid.move((row, col), action)
-            if tuple(cell) not in taken and grid.optimal_steps(cell, package) < here:
-                actions[agent] = action
-                break
-    return actions
+    action order whose cell no robot on the floor stands on) and waits when every such
+    cell is taken. Array operations over the live robots, with the fleet's distance maps."""
+    agents = list(observations)
+    if not agents:
+        return {}
+    cols = env.grid.cols
+    robots = np.fromiter((int(a.rsplit("_", 1)[1]) for a in agents), np.int64, len(agents))
+    cells, packages = env.robot_cells, env.package_cells
+    here = cells[robots, 0] * cols + cells[robots, 1]
+    goal = packages[robots, 0] * cols + packages[robots, 1]
+    taken = np.zeros(env.grid.rows * cols, dtype=bool)
+    on_floor = cells[env.on_floor]
+    taken[on_floor[:, 0] * cols + on_floor[:, 1]] = True
+    moves = neighbour_table(env.grid)[here, :WAIT]  # (n, 4)
+    distance = env.distances.lookup(np.concatenate([here, moves.ravel()]),
+                                    np.concatenate([goal, np.repeat(goal, WAIT)]))  # fmt: skip
+    now, after = distance[: len(here)], distance[len(here) :].reshape(-1, WAIT)
+    good = (after < now[:, None]) & ~taken[moves]
+    actions = np.where(good.any(axis=1), good.argmax(axis=1), WAIT)
+    return dict(zip(agents, actions.tolist(), strict=True))
 
 
 def random_fleet_policy(seed: int) -> FleetPolicy:
@@ -65,7 +80,7 @@ def random_fleet_policy(seed: int) -> FleetPolicy:
 
 @dataclass(frozen=True)
 class FleetEvaluation:
-    """How a policy did over fixed seeds, each episode without lifelong packages."""
+    """How a policy did over fixed seeds, each robot delivering one package."""
 
     episodes: int
     robots: int
@@ -79,18 +94,43 @@ class FleetEvaluation:
     refused: int
     #: Episodes that the time limit ended with a package undelivered.
     deadlocks: int
+    #: Sum of costs: every robot's steps until it delivered, an undelivered robot
+    #: counted at the step its episode ended, summed over robots and episodes.
+    sum_of_costs: int = 0
+    #: Every robot's shortest path at the start, summed: the sum of costs without traffic.
+    all_shortest_steps: int = 0
+    #: The step of each episode's last delivery (its last step when one is missing), summed.
+    makespan_total: int = 0
+    #: WAITs asked for by robots that had not delivered.
+    waits: int = 0
+    #: Undelivered packages that parked robots cut off from their robot at the end.
+    walled_off: int = 0
 
     @property
     def delay(self) -> int:
         """Steps that traffic (and detours) cost the delivering robots."""
         return self.robot_steps - self.shortest_steps
 
+    @property
+    def makespan(self) -> float:
+        """Mean makespan over the episodes [steps]."""
+        return self.makespan_total / self.episodes if self.episodes else 0.0
+
+    @property
+    def undelivered(self) -> int:
+        return self.episodes * self.robots - self.delivered
+
     def summary(self) -> str:
+        walled = (
+            f", {self.walled_off} of them walled off by parked robots" if self.walled_off else ""
+        )
         return (
-            f"{self.delivered}/{self.episodes * self.robots} packages delivered in "
-            f"{self.robot_steps} robot-steps against {self.shortest_steps} on shortest paths "
-            f"(delay {self.delay}); {self.refused} moves refused by traffic, "
-            f"{self.deadlocks} episode(s) stuck at the time limit"
+            f"{self.delivered}/{self.episodes * self.robots} packages delivered{walled}; "
+            f"sum of costs {self.sum_of_costs} against {self.all_shortest_steps} on shortest "
+            f"paths, mean makespan {self.makespan:.1f}; delivering robots {self.robot_steps} "
+            f"robot-steps against {self.shortest_steps} (delay {self.delay}); "
+            f"{self.refused} moves refused by traffic, {self.deadlocks} episode(s) stuck at "
+            "the time limit"
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -98,10 +138,16 @@ class FleetEvaluation:
             "episodes": self.episodes,
             "robots": self.robots,
             "delivered": self.delivered,
+            "undelivered": self.undelivered,
+            "walled_off": self.walled_off,
+            "sum_of_costs": self.sum_of_costs,
+            "all_shortest_steps": self.all_shortest_steps,
+            "makespan": self.makespan,
             "robot_steps": self.robot_steps,
             "shortest_steps": self.shortest_steps,
             "delay": self.delay,
             "refused": self.refused,
+            "waits": self.waits,
             "deadlocks": self.deadlocks,
         }
 
@@ -109,29 +155,149 @@ class FleetEvaluation:
 def evaluate_fleet(
     env: WarehouseFleetEnv, policy: FleetPolicy, *, seeds: range = range(20)
 ) -> FleetEvaluation:
-    """Play ``policy`` on ``env`` (which must not be lifelong) once per seed."""
+    """Play ``policy`` on ``env`` (one-shot: ``on_delivery`` ``"park"`` or ``"leave"``)
+    once per seed, until every robot delivered or the time limit."""
     if env.lifelong:
-        raise ValueError("evaluate a fleet without lifelong packages: each robot delivers one")
-    delivered = robot_steps = shortest = refused = deadlocks = 0
+        raise ValueError(
+            "evaluate_fleet is one-shot (each robot delivers one package); for a lifelong "
+            "fleet use evaluate_throughput"
+        )
+    totals = dict.fromkeys(("delivered", "robot_steps", "shortest_steps", "refused",
+                            "deadlocks", "sum_of_costs", "all_shortest_steps",
+                            "makespan_total", "waits", "walled_off"), 0)  # fmt: skip
     for seed in seeds:
         observations, infos = env.reset(seed=seed)
-        optimal = {agent: info["optimal_steps"] for agent, info in infos.items()}
+        optimal = np.array([infos[a]["optimal_steps"] for a in env.possible_agents])
+        delivered_at = np.zeros(env.num_robots, dtype=np.int64)
         step = 0
         while env.agents:
-            live = {agent: observations[agent] for agent in env.agents}  # not the parked
-            observations, _, terminations, truncations, infos = env.step(policy(env, live, infos))
+            actions = policy(env, observations, infos)
+            totals["waits"] += sum(1 for a in actions.values() if a == WAIT)
+            observations, _, terminations, _, infos = env.step(actions)
             step += 1
             for agent, info in infos.items():
-                refused += info["refused"]
+                totals["refused"] += info["refused"]
                 if terminations[agent]:
-                    delivered += 1
-                    robot_steps += step
-                    shortest += optimal[agent]
-            if any(truncations.values()):
-                deadlocks += 1
-    return FleetEvaluation(
-        len(seeds), env.num_robots, delivered, robot_steps, shortest, refused, deadlocks
-    )
+                    delivered_at[int(agent.rsplit("_", 1)[1])] = step
+            observations = {agent: observations[agent] for agent in env.agents}
+        done = delivered_at > 0
+        totals["delivered"] += int(done.sum())
+        totals["robot_steps"] += int(delivered_at[done].sum())
+        totals["shortest_steps"] += int(optimal[done].sum())
+        totals["sum_of_costs"] += int(np.where(done, delivered_at, step).sum())
+        totals["all_shortest_steps"] += int(optimal.sum())
+        totals["makespan_total"] += step if not done.all() else int(delivered_at.max())
+        if not done.all():
+            totals["deadlocks"] += 1
+            totals["walled_off"] += walled_off_packages(env)
+    return FleetEvaluation(episodes=len(seeds), robots=env.num_robots, **totals)
+
+
+def walled_off_packages(env: WarehouseFleetEnv) -> int:
+    """Robots on the floor, not parked, whose package no path reaches round the parked
+    robots: no policy can deliver them any more."""
+    from scipy.ndimage import label  # imported here: only evaluations need it
+
+    grid = env.grid
+    free = np.ones((grid.rows, grid.cols), dtype=bool)
+    if grid.shelves:
+        shelves = np.array(sorted(grid.shelves))
+        free[shelves[:, 0], shelves[:, 1]] = False
+    parked = env.robot_cells[env.parked]
+    free[parked[:, 0], parked[:, 1]] = False
+    regions, _ = label(free)  # 4-connected regions of the floor left free
+    waiting = env.on_floor & ~env.parked
+    cells, packages = env.robot_cells[waiting], env.package_cells[waiting]
+    return int((regions[cells[:, 0], cells[:, 1]] != regions[packages[:, 0], packages[:, 1]]).sum())
+
+
+@dataclass(frozen=True)
+class ThroughputEvaluation:
+    """How a policy did in lifelong runs (``on_delivery="new_package"``) over fixed seeds."""
+
+    robots: int
+    steps: int
+    #: Deliveries in each seed's run.
+    deliveries: tuple[int, ...]
+    #: Moves that traffic turned into waits, over every run.
+    refused: int
+    #: WAITs asked for, over every run.
+    waits: int
+
+    @property
+    def throughput(self) -> float:
+        """Deliveries per step, the mean over the seeds."""
+        return float(np.mean(self.deliveries)) / self.steps if self.deliveries else 0.0
+
+    def summary(self) -> str:
+        return (
+            f"throughput {self.throughput:.2f} deliveries/step ({self.robots} robots, "
+            f"{self.steps} steps, {len(self.deliveries)} seed(s)); {self.refused} moves "
+            f"refused by traffic, {self.waits} waits"
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "robots": self.robots,
+            "steps": self.steps,
+            "throughput": self.throughput,
+            "deliveries": list(self.deliveries),
+            "refused": self.refused,
+            "waits": self.waits,
+        }
+
+
+def evaluate_throughput(
+    env: WarehouseFleetEnv, policy: FleetPolicy, *, steps: int, seeds: range = range(5)
+) -> ThroughputEvaluation:
+    """Play ``policy`` on the lifelong ``env`` for ``steps`` joint steps once per seed
+    (``env.max_cycles`` must allow them)."""
+    if not env.lifelong:
+        raise ValueError("evaluate_throughput needs a lifelong fleet (on_delivery='new_package')")
+    if env.max_cycles < steps:
+        raise ValueError(f"the fleet's max_cycles ({env.max_cycles}) is below steps={steps}")
+    deliveries, refused, waits = [], 0, 0
+    for seed in seeds:
+        observations, infos = env.reset(seed=seed)
+        for _ in range(steps):
+            actions = policy(env, observations, infos)
+            waits += sum(1 for a in actions.values() if a == WAIT)
+            observations, _, _, _, infos = env.step(actions)
+            refused += sum(info["refused"] for info in infos.values())
+        deliveries.append(int(env.deliveries.sum()))
+    return ThroughputEvaluation(env.num_robots, steps, tuple(deliveries), refused, waits)
+
+
+def compare_policies(
+    evaluations: dict[str, FleetEvaluation | ThroughputEvaluation],
+    *,
+    baseline: str = "shortest",
+    random: str = "random",
+) -> str:
+    """A side-by-side table of ``evaluations`` (by policy name), then one line for each
+    policy that does worse than ``baseline`` or ``random`` (when those are present):
+    fewer packages delivered one-shot, a lower throughput lifelong."""
+    if not evaluations:
+        return ""
+    width = max(len(name) for name in evaluations)
+    lines = [f"{name:<{width}}  {ev.summary()}" for name, ev in evaluations.items()]
+
+    def score(ev: FleetEvaluation | ThroughputEvaluation) -> float:
+        return ev.throughput if isinstance(ev, ThroughputEvaluation) else ev.delivered
+
+    for name, ev in evaluations.items():
+        for reference in (baseline, random):
+            if name == reference or reference not in evaluations:
+                continue
+            if score(ev) < score(evaluations[reference]):
+                what = (
+                    f"a lower throughput ({ev.throughput:.2f} < "
+                    f"{evaluations[reference].throughput:.2f} deliveries/step)"
+                    if isinstance(ev, ThroughputEvaluation)
+                    else f"fewer packages ({ev.delivered} < {evaluations[reference].delivered})"
+                )
+                lines.append(f"WORSE: {name} delivers {what} than {reference}")
+    return "\n".join(lines)
 
 
 def record_fleet_episode(
