@@ -383,8 +383,9 @@ def _draw_floor(ax: Axes, grid: WarehouseGrid, target: tuple[int, int]) -> None:
 
 def _free_mask(grid: WarehouseGrid) -> np.ndarray:
     mask = np.ones((grid.rows, grid.cols), dtype=bool)
-    for r, c in grid.shelves:
-        mask[r, c] = False
+    if grid.shelves:
+        shelves = np.array(sorted(grid.shelves))
+        mask[shelves[:, 0], shelves[:, 1]] = False
     return mask
 
 
@@ -398,3 +399,41 @@ def _figure(figsize: tuple[float, float]) -> Figure:
 def save_figure(figure: Figure, path: str | os.PathLike[str]) -> Path:
     """Save ``figure`` as a PNG, atomically (no half-written file on failure)."""
     return atomic_write(path, lambda file: figure.savefig(file, format="png", dpi=100))
+
+
+def throughput_figure(deliveries: np.ndarray, title: str = "", window: int = 32) -> Figure:
+    """Deliveries at each step of a lifelong run, and their rolling mean over ``window``
+    steps: the throughput over time [deliveries/step]."""
+    deliveries = np.asarray(deliveries, dtype=np.float64)
+    figure = _figure((7, 3))
+    ax = figure.add_subplot()
+    steps = np.arange(1, len(deliveries) + 1)
+    ax.plot(steps, deliveries, color="#bbbbbb", linewidth=0.8, label="deliveries at the step")
+    ax.plot(steps, rolling_mean(deliveries, window), color="#0072B2", linewidth=2,
+            label=f"mean of the last {window} steps")  # fmt: skip
+    mean = deliveries.mean() if len(deliveries) else 0.0
+    ax.axhline(mean, color="#D55E00", linestyle="--", linewidth=1,
+               label=f"throughput {mean:.2f} deliveries/step")  # fmt: skip
+    ax.set_xlabel("step")
+    ax.set_ylabel("deliveries")
+    ax.legend(loc="lower right", fontsize="small")
+    ax.set_title(title or "Throughput over time")
+    return figure
+
+
+def congestion_figure(grid: WarehouseGrid, waits: np.ndarray, title: str = "") -> Figure:
+    """Where robots waited: a heatmap of the waits counted on each cell (shelves grey)."""
+    waits = np.asarray(waits, dtype=np.float64).reshape(grid.rows, grid.cols)
+    shown = np.ma.masked_array(waits, mask=~_free_mask(grid))
+    aspect = grid.cols / grid.rows
+    figure = _figure(
+        (min(12.0, 2 + 5 * aspect), 5) if aspect >= 1 else (6, min(12.0, 2 + 5 / aspect))
+    )
+    ax = figure.add_subplot()
+    ax.set_facecolor("#808080")
+    image = ax.imshow(shown, cmap="magma_r", interpolation="nearest")
+    figure.colorbar(image, ax=ax, label="waits on the cell")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_title(title or f"Congestion: {int(waits.sum()):,} waits")
+    return figure

@@ -452,3 +452,70 @@ class WarehouseRenderer:
 
     def _status_margin(self) -> int:
         return max(4, self.cell_px // 8)  # [px] left and right of the status text
+
+
+#: Robot colours for map frames: Okabe and Ito's colour-blind-safe palette (less its
+#: black and yellow, too close to shelves and packages), cycled [RGB].
+MAP_ROBOT_COLOURS = np.array(
+    [(230, 159, 0), (86, 180, 233), (0, 158, 115), (0, 114, 178), (213, 94, 0),
+     (204, 121, 167), (240, 228, 66), (153, 153, 255)],
+    dtype=np.uint8,
+)  # fmt: skip
+MAP_FLOOR = (245, 245, 240)  # RGB
+MAP_SHELF = (70, 70, 80)  # RGB
+MAP_PACKAGE = (40, 40, 40)  # RGB: a dark dot, left visible round a robot standing on it
+MAP_DELIVERED = DELIVERED_FRAME  # RGB: a parked robot that delivered
+#: Widest map frame drawn by :func:`fleet_map_frame` when it chooses the cell size [px].
+MAP_FRAME_WIDTH_PX = 1000
+
+
+def map_cell_px(rows: int, cols: int, width_px: int = MAP_FRAME_WIDTH_PX) -> int:
+    """The cell size [px] that fits the longer side of a ``rows`` x ``cols`` floor in
+    ``width_px`` (at least 1, at most 24): 2 px for the 500 x 140 warehouse."""
+    return int(np.clip(width_px // max(rows, cols), 1, 24))
+
+
+def fleet_map_frame(
+    grid: Any,
+    robots: np.ndarray,
+    packages: np.ndarray,
+    *,
+    parked: np.ndarray | None = None,
+    on_floor: np.ndarray | None = None,
+    cell_px: int | None = None,
+) -> np.ndarray:
+    """A fleet on a large floor as an ``(H, W, 3)`` uint8 map, drawn with array operations
+    (no pygame): shelves dark, packages dark grey, robots as squares in colour
+    ``MAP_ROBOT_COLOURS[i % 8]``, parked robots green. Where a robot stands on a package
+    and the cell is 3 px or more, the package shows as a dark square in the robot's
+    middle. Robots that left the floor are not drawn. ``cell_px`` defaults to
+    :func:`map_cell_px`."""
+    rows, cols = grid.rows, grid.cols
+    px = map_cell_px(rows, cols) if cell_px is None else int(cell_px)
+    if px < 1:
+        raise ValueError(f"cell_px must be at least 1, got {cell_px}")
+    robots = np.asarray(robots, dtype=np.int64).reshape(-1, 2)
+    packages = np.asarray(packages, dtype=np.int64).reshape(-1, 2)
+    n = len(robots)
+    shown = np.ones(n, dtype=bool) if on_floor is None else np.asarray(on_floor, dtype=bool)
+    done = np.zeros(n, dtype=bool) if parked is None else np.asarray(parked, dtype=bool)
+    waiting = shown & ~done  # robots whose package is still on the floor
+    cells = np.empty((rows, cols, 3), dtype=np.uint8)
+    cells[:] = MAP_FLOOR
+    if grid.shelves:
+        shelves = np.array(sorted(grid.shelves))
+        cells[shelves[:, 0], shelves[:, 1]] = MAP_SHELF
+    cells[packages[waiting, 0], packages[waiting, 1]] = MAP_PACKAGE
+    colours = MAP_ROBOT_COLOURS[np.arange(n) % len(MAP_ROBOT_COLOURS)]
+    colours[done] = MAP_DELIVERED
+    cells[robots[shown, 0], robots[shown, 1]] = colours[shown]
+    frame = np.repeat(np.repeat(cells, px, axis=0), px, axis=1)
+    if px >= 3:  # packages under robots: a square in the middle of the robot's cell
+        occupied = np.zeros((rows, cols), dtype=bool)
+        occupied[robots[shown, 0], robots[shown, 1]] = True
+        under = packages[waiting][occupied[packages[waiting, 0], packages[waiting, 1]]]
+        inner = px // 3
+        for d_row in range(inner, px - inner):
+            for d_col in range(inner, px - inner):
+                frame[under[:, 0] * px + d_row, under[:, 1] * px + d_col] = MAP_PACKAGE
+    return frame

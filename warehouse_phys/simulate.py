@@ -1,0 +1,350 @@
+"""``python -m warehouse_phys.simulate``: run a fleet policy on a floor and measure it.
+
+    python -m warehouse_phys.simulate --layout ../shared/maps/kiva-33-46.map --robots 192
+    python -m warehouse_phys.simulate --layout warehouse --robots 128 --policy shortest
+    python -m warehouse_phys.simulate --layout aisles --robots 4 --on-delivery park \\
+        --policy runs/grid-aisles-seed0-.../qtable.npz
+
+A fleet of ``--robots`` robots on ``--layout`` (a preset, a ``.map`` file or a text
+layout file; or ``--rows``/``--cols``) follows ``--policy`` for ``--steps`` joint
+steps: ``pibt`` (the planner of :mod:`warehouse_phys.planning`), ``shortest``
+(each robot a shortest move, waiting when blocked), ``random``, or a fleet table
+written by ``python -m warehouse_phys.train --robots N``. ``--on-delivery``
+(default ``new_package``: lifelong) says what a robot does with a delivered
+package; ``--physics`` drives the physics twin. The command prints the throughput
+(deliveries per step), deliveries, waits and refused moves, and writes a run
+folder (default ``runs/simulate-<floor>-<robots>-<policy>-seed<seed>-<time>``):
+``summary.json``, ``throughput.png`` (deliveries over time), ``congestion.png``
+(waits on each cell) and ``fleet.gif`` (at most ``--frames`` frames, sized to fit
+a 1000-pixel frame). Bad arguments end with exit status 2 and a one-line message.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from warehouse_phys.cli import MAX_CLI_ROBOTS, ArgumentParser, UsageError, bounded_int
+from warehouse_phys.fleet import DELIVERY_MODES, WarehouseFleetEnv, parallel_env
+from warehouse_phys.fleet_evaluation import (
+    FleetPolicy,
+    random_fleet_policy,
+    shortest_path_policy,
+)
+
+PROG = "python -m warehouse_phys.simulate"
+POLICIES = ("pibt", "shortest", "random")
+RUN_FILES = ("summary.json", "throughput.png", "congestion.png", "fleet.gif")
+DEFAULT_RUNS_DIR = Path("runs")
+#: Frames of the GIF by default: enough to see the traffic, few enough to stay small.
+DEFAULT_FRAMES = 64
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """What a fleet did in one run of :func:`simulate`."""
+
+    layout: str
+    robots: int
+    policy: str
+    seed: int
+    on_delivery: str
+    physics: bool
+    #: Deliveries at each joint step.
+    deliveries: np.ndarray
+    #: Waits counted on each cell, ``(rows, cols)``: a robot that had not delivered and
+    #: stayed on its cell for a step (asked to WAIT, refused or bumping).
+    waits: np.ndarray
+    #: Moves that traffic turned into waits.
+    refused: int
+    #: Seconds of CPU time the run took, the environment and the policy together.
+    cpu_seconds: float
+
+    @property
+    def steps(self) -> int:
+        return len(self.deliveries)
+
+    @property
+    def throughput(self) -> float:
+        """Deliveries per step."""
+        return float(self.deliveries.mean()) if self.steps else 0.0
+
+    def summary(self) -> str:
+        return (
+            f"{self.policy}, {self.robots:,} robots on {self.layout}, {self.steps} steps "
+            f"({self.on_delivery}): throughput {self.throughput:.2f} deliveries/step, "
+            f"{int(self.deliveries.sum()):,} deliveries, {int(self.waits.sum()):,} waits, "
+            f"{self.refused:,} refused moves"
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "layout": self.layout,
+            "robots": self.robots,
+            "policy": self.policy,
+            "seed": self.seed,
+            "on_delivery": self.on_delivery,
+            "physics": self.physics,
+            "steps": self.steps,
+            "throughput": self.throughput,
+            "deliveries": int(self.deliveries.sum()),
+            "waits": int(self.waits.sum()),
+            "refused": self.refused,
+            "cpu_seconds": self.cpu_seconds,
+            "deliveries_per_step": self.deliveries.tolist(),
+        }
+
+
+def make_policy(name: str, env: WarehouseFleetEnv, *, seed: int) -> FleetPolicy:
+    """The fleet policy called ``name``: one of :data:`POLICIES` or a fleet table's path.
+
+    Raises:
+        ValueError: for an unknown name, or a table that does not fit ``env``'s floor.
+    """
+    if name == "pibt":
+        from warehouse_phys.planning import pibt_policy
+
+        return pibt_policy(seed=seed)
+    if name == "shortest":
+        return shortest_path_policy
+    if name == "random":
+        return random_fleet_policy(seed)
+    if name.endswith(".npz"):
+        from warehouse_phys.fleet_learning import greedy_fleet_policy
+        from warehouse_phys.qlearning import QTableError, load_q_table
+
+        try:
+            q, _ = load_q_table(name, rows=env.grid.rows, cols=env.grid.cols)
+        except QTableError as error:
+            raise ValueError(str(error)) from None
+        expected = [*env.observation_space(env.possible_agents[0]).nvec.tolist(), 5]
+        if list(q.shape) != expected:
+            raise ValueError(
+                f"{name}: a table of shape {q.shape} does not fit this fleet's observations "
+                f"(expected {tuple(expected)})"
+            )
+        return greedy_fleet_policy(q)
+    raise ValueError(f"unknown policy {name!r}: choose {', '.join(POLICIES)} or a table (.npz)")
+
+
+def simulate(
+    env: WarehouseFleetEnv,
+    policy: FleetPolicy,
+    *,
+    steps: int,
+    seed: int = 0,
+    frames: int = 0,
+    on_step: Any = None,
+    name: str = "policy",
+    layout: str = "",
+) -> tuple[Simulation, list[np.ndarray]]:
+    """Play ``policy`` on ``env`` from ``env.reset(seed=seed)`` for ``steps`` joint steps
+    (fewer if every robot finished); returns the measures and up to ``frames`` map frames
+    (:func:`~warehouse_phys.render.fleet_map_frame`), evenly spread over the run.
+    ``on_step()`` is called after each step (a progress bar)."""
+    from warehouse_phys.render import fleet_map_frame
+
+    observations, infos = env.reset(seed=seed)
+    grid, cols = env.grid, env.grid.cols
+    waits = np.zeros(grid.rows * cols, dtype=np.int64)
+    deliveries, refused, pictures = [], 0, []
+    every = max(1, -(-steps // frames)) if frames else 0
+
+    def picture() -> None:
+        pictures.append(fleet_map_frame(grid, env.robot_cells, env.package_cells,
+                                        parked=env.parked, on_floor=env.on_floor))  # fmt: skip
+
+    if frames:
+        picture()
+    started = time.process_time()
+    for step in range(steps):
+        if not env.agents:
+            break
+        before = env.robot_cells.copy()
+        working = env.on_floor & ~env.parked
+        actions = policy(env, observations, infos)
+        observations, rewards, _, _, infos = env.step(actions)
+        observations = {agent: observations[agent] for agent in env.agents}
+        deliveries.append(int(sum(rewards.values())))
+        refused += sum(info["refused"] for info in infos.values())
+        stayed = working & (env.robot_cells == before).all(axis=1)
+        np.add.at(waits, before[stayed, 0] * cols + before[stayed, 1], 1)
+        if every and (step + 1) % every == 0 and len(pictures) < frames:
+            picture()
+        if on_step is not None:
+            on_step()
+    result = Simulation(
+        layout=layout or f"{grid.rows}x{grid.cols}",
+        robots=env.num_robots,
+        policy=name,
+        seed=seed,
+        on_delivery=env.on_delivery,
+        physics=env.physics,
+        deliveries=np.array(deliveries, dtype=np.int64),
+        waits=waits.reshape(grid.rows, grid.cols),
+        refused=int(refused),
+        cpu_seconds=time.process_time() - started,
+    )
+    return result, pictures
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = ArgumentParser(
+        prog=PROG,
+        description="Run a fleet policy on a floor; print and save its throughput.",
+    )
+    parser.add_argument("--layout", help="a preset, a MovingAI .map file or a layout file")
+    parser.add_argument("--rows", type=bounded_int(2, "at least 2 rows"), help="empty floor rows")
+    parser.add_argument("--cols", type=bounded_int(2, "at least 2 columns"), help="columns")
+    parser.add_argument(
+        "--robots",
+        type=bounded_int(1, f"a number of robots from 1 to {MAX_CLI_ROBOTS:,}", MAX_CLI_ROBOTS),
+        default=4,
+        help="robots in the fleet (default 4)",
+    )
+    parser.add_argument(
+        "--policy", default="pibt", help="pibt (default), shortest, random, or a table (.npz)"
+    )
+    parser.add_argument(
+        "--steps", type=bounded_int(1, "a positive number of steps"), default=256,
+        help="joint steps (default 256)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--on-delivery", choices=DELIVERY_MODES, default="new_package",
+        help="what a robot does with a delivered package (default new_package: lifelong)",
+    )  # fmt: skip
+    parser.add_argument("--physics", action="store_true", help="drive the physics twin")
+    parser.add_argument("--seed", type=bounded_int(0, "a seed of 0 or more"), default=0)
+    parser.add_argument(
+        "--frames", type=bounded_int(0, "a number of frames of 0 or more"),
+        default=DEFAULT_FRAMES, help=f"GIF frames (default {DEFAULT_FRAMES}; 0: no GIF)",
+    )  # fmt: skip
+    parser.add_argument("--out", type=Path, help="run folder to write")
+    parser.add_argument(
+        "--overwrite", action="store_true", help="reuse --out holding an earlier run's files"
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    from warehouse_phys.runfolder import RunFolder, RunFolderError, RunWriteError
+
+    try:
+        args = build_parser().parse_args(argv)
+        env, policy = _setup(args)
+        label = _floor_label(args)
+        if args.out is None:
+            name = (
+                f"simulate-{label}-{args.robots}-{Path(args.policy).stem}-seed{args.seed}-"
+                f"{time.strftime('%Y%m%d-%H%M%S')}"
+            )
+            folder = RunFolder(DEFAULT_RUNS_DIR / name, RUN_FILES, new=True)
+        else:
+            folder = RunFolder(args.out, RUN_FILES, overwrite=args.overwrite)
+        try:
+            folder.open()
+        except RunFolderError as error:
+            raise UsageError(f"--out {error}" if args.out is not None else str(error)) from None
+        finished = False
+        try:
+            result, frames = _run(args, env, policy, label)
+            _write(folder, env, result, frames)
+            finished = True
+        finally:
+            folder.close(remove_if_empty=not finished)
+    except (UsageError, RunFolderError) as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 2
+    except RunWriteError as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    print(result.summary())
+    print(f"wrote {folder.path}/: {', '.join(folder.written)}")
+    return 0
+
+
+def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
+    if args.layout is not None and (args.rows is not None or args.cols is not None):
+        raise UsageError("give --layout or --rows/--cols, not both")
+    floor: dict[str, Any] = {"layout": args.layout}
+    if args.layout is None:
+        floor = {"grid_rows": args.rows or 4, "grid_cols": args.cols or 5}
+    try:
+        env = parallel_env(
+            num_robots=args.robots, physics=args.physics, on_delivery=args.on_delivery,
+            max_cycles=args.steps, observation=_observation_of(args.policy), **floor,
+        )  # fmt: skip
+        policy = make_policy(args.policy, env, seed=args.seed)
+    except (ValueError, TypeError, OSError) as error:
+        raise UsageError(str(error).splitlines()[0]) from None
+    return env, policy
+
+
+def _observation_of(policy: str) -> str:
+    """The observation a table was trained on (its shape says), else ``"local"``."""
+    if not policy.endswith(".npz"):
+        return "local"
+    from warehouse_phys.qlearning import QTableError, load_q_table
+
+    try:
+        q, _ = load_q_table(policy)
+    except (QTableError, OSError) as error:
+        raise ValueError(f"--policy {error}") from None
+    return "neighbours" if q.ndim == 6 else "local"
+
+
+def _floor_label(args: argparse.Namespace) -> str:
+    if args.layout is None:
+        return f"{args.rows or 4}x{args.cols or 5}"
+    return Path(args.layout).stem if args.layout.endswith(".map") else Path(args.layout).name
+
+
+def _run(
+    args: argparse.Namespace, env: WarehouseFleetEnv, policy: FleetPolicy, label: str
+) -> tuple[Simulation, list[np.ndarray]]:
+    from tqdm import tqdm
+
+    # disable=None: tqdm switches itself off when stderr is not a terminal.
+    with tqdm(total=args.steps, desc="simulating", unit="step",
+              disable=True if args.quiet else None) as bar:  # fmt: skip
+        try:
+            return simulate(
+                env, policy, steps=args.steps, seed=args.seed, frames=args.frames,
+                on_step=bar.update, name=Path(args.policy).name, layout=label,
+            )  # fmt: skip
+        except ValueError as error:  # a table's observation that does not fit, ...
+            raise UsageError(str(error).splitlines()[0]) from None
+
+
+def _write(folder: Any, env: WarehouseFleetEnv, result: Simulation, frames: list) -> None:
+    from warehouse_phys.animation import Animation
+    from warehouse_phys.atomic import atomic_write_text
+    from warehouse_phys.plots import congestion_figure, save_figure, throughput_figure
+
+    text = json.dumps(result.to_json(), indent=2) + "\n"
+    folder.write("summary.json", lambda path: atomic_write_text(path, text))
+    folder.write(
+        "throughput.png",
+        lambda path: save_figure(throughput_figure(result.deliveries, result.summary()), path),
+    )
+    folder.write(
+        "congestion.png", lambda path: save_figure(congestion_figure(env.grid, result.waits), path)
+    )
+    if frames:
+        folder.write("fleet.gif", lambda path: Animation(frames, fps=8).save(path))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
