@@ -202,7 +202,7 @@ def test_start_symbol_moves_the_start():
         (["...", ".."], ValueError, "row 1 has 2 cells, row 0 has 3"),
         (["..x", "..."], ValueError, r"unknown layout symbol 'x' at row 0, column 2"),
         (["S.#", "##S"], ValueError, r"start cells \[\(1, 2\)\] cannot be reached"),
-        (["#..", "..."], ValueError, r"the start cell \(0, 0\) is a shelf"),
+        (["##", "##"], ValueError, "the layout has no floor: every cell is a shelf"),
         (["S#P", "##."], ValueError, r"package cells \[\(0, 2\)\] cannot be reached"),
         (["S#.", "#.."], ValueError, "leaves no cell for the package"),
         (["S"], ValueError, "leaves no cell for the package"),

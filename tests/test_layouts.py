@@ -136,3 +136,151 @@ def test_the_exact_limit_does_not_rerun_the_walk_for_every_candidate():
 def test_a_granularity_that_is_not_a_positive_integer_is_refused(granularity):
     with pytest.raises(ValueError, match="granularity must be a positive integer"):
         suggested_time_limit(WarehouseGrid(4, 5), granularity)
+
+
+# --------------------------------------------------------- MovingAI maps, the warehouse
+MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps"
+
+
+def benchmark_map(name):
+    path = MAPS / name
+    if not path.is_file():
+        pytest.skip(f"benchmark maps not found at {MAPS} (the shared folder beside the checkout)")
+    return path
+
+
+def write(tmp_path, text, name="floor.map"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+MAP_TEXT = "type octile\nheight 3\nwidth 4\nmap\n@..E\n.T.G\nE..S\n"
+
+
+def test_a_movingai_map_reads_as_a_floor(tmp_path):
+    grid = layouts_module.read_movingai(write(tmp_path, MAP_TEXT))
+    assert (grid.rows, grid.cols) == (3, 4)
+    assert grid.shelves == {(0, 0), (1, 1)}
+    assert grid.start == (0, 1)  # the first cell of the largest region
+    assert not grid.starts_marked
+    assert set(grid.target_cells) == set(grid.reachable) - {(0, 1)}
+    endpoints = layouts_module.read_movingai(tmp_path / "floor.map", packages="endpoints")
+    assert set(endpoints.target_cells) == {(0, 3), (2, 0)}
+    assert resolve_layout(str(tmp_path / "floor.map")).shelves == grid.shelves
+    assert resolve_layout(tmp_path / "floor.map").shelves == grid.shelves
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("type octile\nheight 3\n", "line 3: expected 'width <value>', got the end of the file"),
+        ("type octile\nheight x\nwidth 4\nmap\n", "line 2: height must be an integer"),
+        ("type octile\nheight 99999\nwidth 4\nmap\n", "line 2: height must be 1 to"),
+        ("type octile\nheight 3\nwidth 4\nmapp\n", "line 4: expected 'map'"),
+        ("type octile\nheight 3\nwidth 4\nmap\n@..E\n.T.G\n", "line 7: the header says 3 rows"),
+        ("type octile\nheight 3\nwidth 4\nmap\n@..E\n.T.\nE..S\n", "line 6: a row of 3"),
+        ("type octile\nheight 3\nwidth 4\nmap\n@..E\n.T.x\nE..S\n", "line 6, column 4: unknown"),
+        ("type octile\nheight 1\nwidth 2\nmap\n@@\n", "every cell is a shelf"),
+        ("type octile\nheight 2\nwidth 2\nmap\n..\n..\n", None),
+    ],
+)
+def test_malformed_maps_are_refused_in_one_line_naming_the_file(tmp_path, text, message):
+    path = write(tmp_path, text)
+    if message is None:
+        with pytest.raises(ValueError, match="marks no 'E' cell"):
+            layouts_module.read_movingai(path, packages="endpoints")
+        return
+    with pytest.raises(ValueError, match=message) as error:
+        layouts_module.read_movingai(path)
+    assert str(error.value).startswith(str(path))
+    assert "\n" not in str(error.value)
+
+
+def test_missing_binary_and_folder_maps_are_refused(tmp_path):
+    for path, message in (
+        (tmp_path / "none.map", "no such map file"),
+        (tmp_path, "a folder, not a map file"),
+        (write(tmp_path, "", "empty.map"), "line 1: expected 'type <value>'"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            layouts_module.read_movingai(path)
+    junk = tmp_path / "junk.map"
+    junk.write_bytes(b"type octile\n\x89PNG\x00\xff")
+    with pytest.raises(ValueError, match="line 2: not a MovingAI map"):
+        layouts_module.read_movingai(junk)
+    with pytest.raises(ValueError, match="packages must be"):
+        layouts_module.read_movingai(junk, packages="some")
+
+
+def test_the_warehouse_preset_is_the_kiva_benchmark_floor():
+    grid = resolve_layout("warehouse")
+    assert (grid.rows, grid.cols) == (33, 46)
+    assert not grid.starts_marked
+    assert "warehouse" not in PRESETS  # a fleet floor, not a single robot's
+    kiva = layouts_module.read_movingai(benchmark_map("kiva-33-46.map"))
+    assert grid.shelves == kiva.shelves
+    assert set(grid.target_cells) == set(kiva.target_cells)
+
+
+def test_the_generator_builds_the_floor_it_is_asked_for():
+    sizes = {"shelf_rows": 2, "blocks_per_row": 2, "block_length": 3, "aisle_width": 1,
+             "gap_width": 2, "margin_rows": 1, "margin_cols": 1}  # fmt: skip
+    rows = layouts_module.warehouse(**sizes)
+    assert rows == (
+        "..........",
+        ".###..###.",
+        "..........",
+        ".###..###.",
+        "..........",
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"shelf_rows": 0}, ValueError, "shelf_rows must be at least 1"),
+        ({"block_length": 2.5}, TypeError, "block_length must be an integer"),
+        ({"margin_cols": -1}, ValueError, "margin_cols must be at least 0"),
+        ({"shelf_rows": 5000}, ValueError, "the largest floor"),
+    ],
+)
+def test_the_generator_refuses_bad_sizes_by_name(kwargs, error, message):
+    with pytest.raises(error, match=message):
+        layouts_module.warehouse(**kwargs)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_written_maps_read_back_as_the_same_floor(tmp_path, seed):
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    rows, cols = rng.integers(2, 9, size=2)
+    cells = rng.choice(
+        ["#", ".", ".", ".", "P"] if seed % 2 else ["#", ".", "."], size=(rows, cols)
+    )
+    cells[0, 0] = "S"
+    try:
+        grid = WarehouseGrid.from_layout(["".join(row) for row in cells])
+    except ValueError:  # a P the start cannot reach, or no package cell
+        return
+    path = layouts_module.write_movingai(grid, tmp_path / "out.map")
+    packages = "endpoints" if "E" in path.read_text() else "all"
+    again = layouts_module.read_movingai(path, packages=packages)
+    assert again.shelves == grid.shelves
+    assert (again.rows, again.cols) == (grid.rows, grid.cols)
+    if packages == "endpoints":
+        assert set(again.target_cells) == set(grid.target_cells)
+
+
+def test_large_benchmark_maps_read_quickly_and_whole():
+    import time
+
+    started = time.process_time()
+    grid = layouts_module.read_movingai(benchmark_map("warehouse-large-140-500.map"))
+    assert time.process_time() - started < 5  # generous: about 0.2 s here
+    assert (grid.rows, grid.cols) == (140, 500)
+    assert len(grid.reachable) == 38_586
+    endpoints = layouts_module.read_movingai(MAPS / "warehouse-large-140-500.map",
+                                             packages="endpoints")  # fmt: skip
+    assert len(endpoints.target_cells) == 352

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from warehouse_phys.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
-from warehouse_phys.layouts import PRESETS
+from warehouse_phys.layouts import FLEET_PRESETS, PRESETS, read_movingai
 from warehouse_phys.runs import ENVIRONMENTS, Floor
 
 DEFAULT_ENV = "phys"
@@ -91,8 +91,9 @@ def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = ""
     parser.add_argument(
         "--layout",
         metavar="NAME_OR_FILE",
-        help=f"a warehouse layout: a preset ({', '.join(PRESETS)}) or a text file "
-        "of rows ('.' floor, '#' shelf, 'P' package cell, 'S' start)",
+        help=f"a warehouse layout: a preset ({', '.join([*PRESETS, *FLEET_PRESETS])}), a "
+        "MovingAI .map file or a text file of rows ('.' floor, '#' shelf, 'P' package "
+        "cell, 'S' start)",
     )
 
 
@@ -120,7 +121,16 @@ def floor_from_layout(name_or_file: str, *, max_steps: int | None = None) -> Flo
     """
     if name_or_file in PRESETS:
         return Floor(preset=name_or_file, label=name_or_file, max_steps=max_steps)
+    if name_or_file in FLEET_PRESETS:
+        layout = FLEET_PRESETS[name_or_file]
+        return Floor(layout=layout, label=name_or_file, max_steps=max_steps)
     path = Path(name_or_file)
+    if path.suffix == ".map":  # a MovingAI benchmark map
+        try:
+            grid = read_movingai(path)
+        except ValueError as error:
+            raise UsageError(f"--layout {error}") from None
+        return Floor(layout=grid.layout, label=path.stem, max_steps=max_steps)
     if not path.is_file():
         raise UsageError(
             f"--layout {name_or_file!r} is neither a preset ({', '.join(PRESETS)}) nor a file"

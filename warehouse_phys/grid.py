@@ -95,6 +95,7 @@ class WarehouseGrid:
         "shelves",
         "start",
         "starts",
+        "starts_marked",
         "target_cells",
     )
 
@@ -110,7 +111,9 @@ class WarehouseGrid:
 
         ``.`` is floor, ``#`` a shelf, ``P`` floor on which packages may
         appear and ``S`` a start: the first ``S`` in reading order is the
-        robot's (``(0, 0)`` without one), and a fleet
+        robot's (without one, the first cell in reading order of the largest
+        region of floor connected by moves: ``(0, 0)`` on a connected floor
+        whose corner is free; :attr:`starts_marked` is then False), and a fleet
         (:mod:`warehouse_phys.fleet`) puts a robot on each. Without ``P``,
         packages may appear on every floor cell the robot can reach, except
         the starts. Cells are reached by moves between free neighbours; floor
@@ -120,8 +123,8 @@ class WarehouseGrid:
         Raises:
             TypeError: if ``layout`` is not a sequence of strings.
             ValueError: naming the row and column, for an empty layout, rows of
-                different lengths, an unknown symbol, a start the first start
-                cannot reach, ``P`` cells the robot cannot reach, or no cell at
+                different lengths, an unknown symbol, no floor at all, a start the
+                first start cannot reach, ``P`` cells the robot cannot reach, or no cell at
                 all for a package.
         """
         if isinstance(layout, str) or not isinstance(layout, Sequence):
@@ -152,9 +155,7 @@ class WarehouseGrid:
                         f"unknown layout symbol {symbol!r} at row {r}, column {c}; known: {known}"
                     )
         starts = [Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == START]
-        start = starts[0] if starts else START_CELL
-        if rows[start.row][start.col] == SHELF:
-            raise ValueError(f"the start cell {tuple(start)} is a shelf")
+        start = starts[0] if starts else _first_cell_of_largest_region(rows)
         shelves = frozenset(
             Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == SHELF
         )
@@ -166,6 +167,7 @@ class WarehouseGrid:
                 f"start cells {stranded} cannot be reached from the start {tuple(start)}"
             )
         grid.starts = tuple(starts) or (start,)
+        grid.starts_marked = bool(starts)
         marked = [
             Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == PACKAGE
         ]
@@ -210,6 +212,10 @@ class WarehouseGrid:
         #: Every start cell of the layout in reading order, ``start`` first; ``(start,)``
         #: on the empty floor. A fleet puts a robot on each.
         self.starts = (start,)
+        #: Whether the start was given: by ``S`` cells of a layout, or as the corner of a
+        #: plain floor. False for a layout without ``S`` (a benchmark map, say), whose
+        #: start is the first cell of its largest region; a fleet there draws its starts.
+        self.starts_marked = True
         #: Every cell the target may be placed on, in row-major order. On the
         #: empty floor: rows 1..R-1 and columns 1..C-1, so never the start's
         #: row or column.
@@ -393,6 +399,20 @@ def move_table(grid: WarehouseGrid) -> list[list[tuple[Cell, ...]]] | None:
     if grid.rows * grid.cols > MOVE_TABLE_CELLS:
         return None
     return _move_table((grid.rows, grid.cols, grid.layout))
+
+
+def _first_cell_of_largest_region(rows: Sequence[str]) -> Cell:
+    """The first cell, in reading order, of the largest region of free cells connected
+    by moves (the first such region on a tie)."""
+    from scipy.ndimage import label  # imported here: only floors without a start need it
+
+    free = np.array([[symbol != SHELF for symbol in row] for row in rows], dtype=bool)
+    regions, count = label(free)  # 4-connected, numbered in reading order
+    if count == 0:
+        raise ValueError("the layout has no floor: every cell is a shelf")
+    largest = int(np.bincount(regions.ravel())[1:].argmax()) + 1
+    first = int(np.flatnonzero(regions.ravel() == largest)[0])
+    return Cell(first // len(rows[0]), first % len(rows[0]))
 
 
 def check_size(name: str, value: object) -> int:

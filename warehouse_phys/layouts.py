@@ -7,14 +7,24 @@ registered as ``warehouse-robot-<name>-v0`` (grid twin) and
 ``warehouse-robot-phys-<name>-v0`` (physics-backed), with a time limit that
 suits its size. Like :mod:`warehouse_phys.grid`, this module imports neither
 gymnasium, pymunk nor pygame.
+
+Fleet floors: :func:`warehouse` generates Kiva-style warehouses (rows of shelf
+blocks with aisles between), and :data:`FLEET_PRESETS` names one, ``"warehouse"``,
+whose floor equals the classic ``kiva-33-46.map`` of the multi-robot planning
+benchmarks cell for cell. Benchmark maps in the MovingAI format are read by
+:func:`read_movingai` (and wherever a ``layout=`` takes a path ending in ``.map``)
+and written by :func:`write_movingai`.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
-from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.atomic import atomic_write_text
+from warehouse_phys.grid import MAX_SIDE, WarehouseGrid
 
 
 @dataclass(frozen=True)
@@ -129,20 +139,200 @@ def preset_ids(name: str) -> tuple[str, str]:
     return f"warehouse-robot-{name}-v0", f"warehouse-robot-phys-{name}-v0"
 
 
-def resolve_layout(layout: str | Sequence[str]) -> WarehouseGrid:
-    """The grid of a preset name or of a layout's rows.
+def resolve_layout(layout: str | os.PathLike[str] | Sequence[str]) -> WarehouseGrid:
+    """The grid of a preset name (:data:`PRESETS` or :data:`FLEET_PRESETS`), of a MovingAI
+    map file (a path ending in ``.map``) or of a layout's rows.
 
     Raises:
-        ValueError: for an unknown preset name or an invalid layout (the
-            message says which, and where).
-        TypeError: if ``layout`` is neither a string nor a sequence of strings.
+        ValueError: for an unknown preset name, an unreadable or malformed map file or
+            an invalid layout (the message says which, and where).
+        TypeError: if ``layout`` is neither a string, a path nor a sequence of strings.
     """
+    if isinstance(layout, os.PathLike) or (isinstance(layout, str) and layout.endswith(".map")):
+        return read_movingai(layout)
     if isinstance(layout, str):
+        if layout in FLEET_PRESETS:
+            return WarehouseGrid.from_layout(FLEET_PRESETS[layout])
         preset = PRESETS.get(layout)
         if preset is None:
+            names = ", ".join(sorted([*PRESETS, *FLEET_PRESETS]))
             raise ValueError(
-                f"unknown layout preset {layout!r}; presets: {', '.join(sorted(PRESETS))} "
-                "(or pass the rows as a list of strings)"
+                f"unknown layout preset {layout!r}; presets: {names} (or pass the rows as a "
+                "list of strings, or a MovingAI .map file)"
             )
         return WarehouseGrid.from_layout(preset.rows)
     return WarehouseGrid.from_layout(layout)
+
+
+def warehouse(
+    shelf_rows: int = 8,
+    blocks_per_row: int = 3,
+    block_length: int = 10,
+    aisle_width: int = 3,
+    gap_width: int = 1,
+    margin_rows: int = 2,
+    margin_cols: int = 7,
+) -> tuple[str, ...]:
+    """A Kiva-style warehouse floor, as layout rows: ``shelf_rows`` rows of shelves, each
+    ``blocks_per_row`` blocks of ``block_length`` shelf cells with ``gap_width`` free
+    columns between blocks, ``aisle_width`` free rows between shelf rows, and free
+    margins of ``margin_rows`` rows above and below and ``margin_cols`` columns left and
+    right. No start is marked (a fleet draws its starts) and every free cell may hold a
+    package. The defaults give the classic 33 x 46 floor of ``kiva-33-46.map``.
+
+    Raises:
+        TypeError: if an argument is not an integer.
+        ValueError: naming the argument, if one is out of range or the floor would exceed
+            the largest floor.
+    """
+    sizes = {"shelf_rows": shelf_rows, "blocks_per_row": blocks_per_row,
+             "block_length": block_length, "aisle_width": aisle_width, "gap_width": gap_width,
+             "margin_rows": margin_rows, "margin_cols": margin_cols}  # fmt: skip
+    for name, value in sizes.items():
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise TypeError(f"{name} must be an integer, got {value!r}")
+        least = 1 if name in ("shelf_rows", "blocks_per_row", "block_length", "aisle_width",
+                              "gap_width") else 0  # fmt: skip
+        if value < least:
+            raise ValueError(f"{name} must be at least {least}, got {value}")
+    height = 2 * margin_rows + shelf_rows + (shelf_rows - 1) * aisle_width
+    width = 2 * margin_cols + blocks_per_row * block_length + (blocks_per_row - 1) * gap_width
+    if height > MAX_SIDE or width > MAX_SIDE:
+        raise ValueError(
+            f"the warehouse would be {height} x {width} cells; the largest floor is "
+            f"{MAX_SIDE} x {MAX_SIDE}"
+        )
+    if height < 2 or width < 2:
+        raise ValueError(f"the warehouse would be {height} x {width} cells; at least 2 x 2")
+    free = "." * width
+    blocks = ("." * gap_width).join(["#" * block_length] * blocks_per_row)
+    shelves = "." * margin_cols + blocks + "." * margin_cols
+    rows = [free] * margin_rows
+    for i in range(shelf_rows):
+        rows += [free] * (aisle_width if i else 0) + [shelves]
+    rows += [free] * margin_rows
+    return tuple(rows)
+
+
+#: Floors for fleets, by name: larger than single-robot training suits, so they are not
+#: registered as single-robot environments; every ``layout=`` takes their names.
+FLEET_PRESETS: dict[str, tuple[str, ...]] = {
+    # The classic Kiva warehouse of the planning benchmarks (kiva-33-46.map): 192 robots,
+    # 256 steps, lifelong is where published fleets are compared.
+    "warehouse": warehouse(),
+}
+
+#: MovingAI map symbols: the passable and the blocked ones.
+MOVINGAI_PASSABLE = frozenset(".GSE")
+MOVINGAI_BLOCKED = frozenset("@OTW")
+#: The endpoint symbol: package cells with ``packages="endpoints"``.
+MOVINGAI_ENDPOINT = "E"
+#: Largest map file read [bytes]: the largest floor's rows and a generous header.
+MAX_MAP_BYTES = (MAX_SIDE + 2) * MAX_SIDE + 4096
+_HEADER = ("type", "height", "width", "map")
+
+
+def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> WarehouseGrid:
+    """The floor of a MovingAI ``.map`` file.
+
+    The header is ``type <name>``, ``height H``, ``width W``, ``map``, then come ``H``
+    rows of ``W`` symbols: passable ``.``, ``G``, ``S`` (swamp) and ``E`` (endpoint),
+    blocked ``@``, ``O``, ``T`` and ``W`` (shelves here). ``packages="all"`` (default,
+    POGEMA's convention) lets packages appear on every free cell; ``"endpoints"`` only on
+    ``E`` cells. No start is marked (``starts_marked`` is False): the single robot
+    starts on the first cell of the largest free region, a fleet draws its starts.
+
+    Raises:
+        ValueError: one line naming the file (and the line) for a file that is missing,
+            unreadable, binary or too large, a bad header, rows of the wrong number or
+            length, an unknown symbol, no free cell, no endpoint with
+            ``packages="endpoints"``, or an unknown ``packages``.
+    """
+    if packages not in ("all", "endpoints"):
+        raise ValueError(f"packages must be 'all' or 'endpoints', got {packages!r}")
+    path = Path(path)
+    try:
+        with path.open("rb") as file:
+            data = file.read(MAX_MAP_BYTES + 1)
+    except FileNotFoundError:
+        raise ValueError(f"{path}: no such map file") from None
+    except IsADirectoryError:
+        raise ValueError(f"{path}: a folder, not a map file") from None
+    except OSError as error:
+        raise ValueError(f"{path}: cannot read the map: {error.strerror or error}") from None
+    if len(data) > MAX_MAP_BYTES:
+        raise ValueError(
+            f"{path}: larger than any map of at most {MAX_SIDE} x {MAX_SIDE} cells "
+            f"({MAX_MAP_BYTES:,} bytes)"
+        )
+    try:
+        text = data.decode("ascii")
+    except UnicodeDecodeError as error:
+        line = data[: error.start].count(b"\n") + 1
+        raise ValueError(f"{path}, line {line}: not a MovingAI map (binary data)") from None
+    lines = text.splitlines()
+    sizes = {}
+    for number, key in enumerate(_HEADER, start=1):
+        words = lines[number - 1].split() if number <= len(lines) else []
+        if not words or words[0] != key or len(words) != (1 if key == "map" else 2):
+            got = repr(lines[number - 1][:40]) if number <= len(lines) else "the end of the file"
+            expected = "'map'" if key == "map" else f"'{key} <value>'"
+            raise ValueError(f"{path}, line {number}: expected {expected}, got {got}")
+        if key in ("height", "width"):
+            try:
+                sizes[key] = int(words[1])
+            except ValueError:
+                raise ValueError(
+                    f"{path}, line {number}: {key} must be an integer, got {words[1][:40]!r}"
+                ) from None
+            if not 1 <= sizes[key] <= MAX_SIDE:
+                raise ValueError(f"{path}, line {number}: {key} must be 1 to {MAX_SIDE}, "
+                                 f"got {sizes[key]}")  # fmt: skip
+    height, width = sizes["height"], sizes["width"]
+    body = lines[len(_HEADER) :]
+    while body and len(body) > height and not body[-1].strip():
+        body.pop()  # blank lines at the end
+    if len(body) != height:
+        raise ValueError(
+            f"{path}, line {len(_HEADER) + min(len(body), height) + 1}: the header says "
+            f"{height} rows, the file has {len(body)}"
+        )
+    known = MOVINGAI_PASSABLE | MOVINGAI_BLOCKED
+    endpoint = "P" if packages == "endpoints" else "."
+    table = str.maketrans({**dict.fromkeys(MOVINGAI_BLOCKED, "#"),
+                           **dict.fromkeys(".GS", "."), MOVINGAI_ENDPOINT: endpoint})  # fmt: skip
+    rows = []
+    for number, row in enumerate(body, start=len(_HEADER) + 1):
+        if len(row) != width:
+            raise ValueError(
+                f"{path}, line {number}: a row of {len(row)} symbols; the header says {width}"
+            )
+        if not set(row) <= known:
+            column = next(i for i, symbol in enumerate(row) if symbol not in known)
+            raise ValueError(
+                f"{path}, line {number}, column {column + 1}: unknown symbol {row[column]!r}; "
+                f"passable {''.join(sorted(MOVINGAI_PASSABLE))}, blocked "
+                f"{''.join(sorted(MOVINGAI_BLOCKED))}"
+            )
+        rows.append(row.translate(table))
+    if packages == "endpoints" and not any(MOVINGAI_ENDPOINT in row for row in body):
+        raise ValueError(f"{path}: packages='endpoints' but the map marks no 'E' cell")
+    try:
+        return WarehouseGrid.from_layout(rows)
+    except ValueError as error:
+        raise ValueError(f"{path}: {error}") from None
+
+
+def write_movingai(grid: WarehouseGrid, path: str | os.PathLike[str]) -> Path:
+    """Save ``grid`` as a MovingAI ``.map`` file, atomically: shelves ``@``, floor ``.``;
+    when packages may appear on only some cells, those are ``E``, so that
+    ``read_movingai(path, packages="endpoints")`` gives the same package cells (the
+    format has no start: a marked start is not kept). Returns the path."""
+    rows = [["@" if (r, c) in grid.shelves else "." for c in range(grid.cols)]
+            for r in range(grid.rows)]  # fmt: skip
+    free = {(r, c) for r in range(grid.rows) for c in range(grid.cols)} - grid.shelves
+    if set(grid.target_cells) != free - set(grid.starts):
+        for r, c in grid.target_cells:
+            rows[r][c] = MOVINGAI_ENDPOINT
+    header = f"type octile\nheight {grid.rows}\nwidth {grid.cols}\nmap\n"
+    return atomic_write_text(path, header + "".join("".join(row) + "\n" for row in rows))
