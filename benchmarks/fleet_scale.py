@@ -30,7 +30,6 @@ import sys
 import time
 from pathlib import Path
 
-
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 

@@ -235,7 +235,7 @@ def test_a_fleet_layout_puts_its_robots_on_its_start_cells():
         ({"num_robots": 2.0}, TypeError, "num_robots must be an integer"),
         ({"num_robots": 5, "grid_rows": 2, "grid_cols": 2}, ValueError, "need 5 start cells"),
         ({"num_robots": 7, "layout": "depot"}, ValueError, "7 robots need 7 package cells away"),
-        ({"num_robots": 4, "layout": "depot", "lifelong": True}, ValueError, "need 7 package"),
+        ({"num_robots": 4, "layout": "depot", "lifelong": True}, ValueError, "need 8 package"),
         ({"physics": "yes"}, TypeError, "physics must be a bool"),
         ({"observation": "pixels"}, ValueError, "observation must be one of"),
         ({"max_cycles": 0}, ValueError, "max_cycles must be at least 1"),

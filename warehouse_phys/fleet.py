@@ -463,8 +463,10 @@ class WarehouseFleetEnv(ParallelEnv):
                 f"packages); this floor has {len(self._reachable):,}"
             )
         if self.lifelong:
-            needed, room = 2 * n - 1, len(self._targets)
-            where = " (lifelong: one for every robot and package but the one drawn)"
+            # A robot that delivers stands on a package cell, the others may too, and
+            # their packages take n - 1 more: its new one needs one cell beyond.
+            needed, room = 2 * n, len(self._targets)
+            where = " (lifelong: one for every robot and every package)"
         elif self.starts_mode == "layout":
             needed = n
             room = int((~np.isin(self._targets, self._layout_starts_index)).sum())

@@ -1,0 +1,280 @@
+"""A fleet planner that never deadlocks: PIBT, priority inheritance with backtracking.
+
+:class:`PIBT` plans one joint step at a time for every robot of a fleet (Okumura,
+Machida, Defago and Tamura, "Priority inheritance with backtracking for iterative
+multi-agent path finding", IJCAI 2019), written after pypibt, Okumura's own minimal
+version: robots plan in order of priority; each takes the free neighbouring cell
+closest to its goal, and a robot standing in the way *inherits* the planner's
+priority and must move out of the way first (recursively), or the first robot
+backtracks to its next candidate. :func:`pibt_policy` wraps it as a fleet policy
+(the ``FleetPolicy`` of :mod:`warehouse_phys.fleet_evaluation`).
+
+The planner proposes and :mod:`warehouse_phys.traffic` grants: every joint action
+it returns is granted in full by :func:`~warehouse_phys.traffic.resolve_moves`
+(no two robots into one cell, no swaps, a robot enters an occupied cell only as
+its occupant leaves, and without corner follows only straight behind it), so
+the physics world's proof of the traffic rule covers its moves too.
+
+Like :mod:`warehouse_phys.grid`, this module imports neither gymnasium, pymunk,
+pygame nor PettingZoo; it reads the fleet's public arrays, never its internals.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from warehouse_phys.distances import DistanceMaps
+from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.traffic import FLEET_ACTIONS, WAIT, neighbour_table
+
+if TYPE_CHECKING:
+    from warehouse_phys.fleet import WarehouseFleetEnv
+
+#: "No robot" / "not planned yet" in the planner's arrays.
+NIL = -1
+
+
+class PIBT:
+    """PIBT for one floor, stateful across the steps of an episode.
+
+    ``plan(cells, goals, movable, present)`` returns every robot's action for the
+    next joint step (0..3 a move, :data:`~warehouse_phys.traffic.WAIT`):
+
+    - Robots plan in decreasing priority. A robot's priority grows by one each step it
+      plans towards the same goal and falls back to its fractional tie-breaker (drawn
+      once from ``seed``) when its goal changes, so a robot that waits long enough
+      comes first: in PIBT's sense, every robot whose goal stays reachable reaches it
+      (the reachability property on floors where any two cells are joined by a cycle,
+      the lifelong setting of the paper); nothing waits forever in a standoff.
+    - Candidates are the cells a move leads to and staying put, tried nearest to the
+      goal first (exact distances from :class:`~warehouse_phys.distances.DistanceMaps`)
+      with ties broken at random by a generator seeded with ``seed``.
+    - A robot that is not ``movable`` (parked on its delivered package) holds its cell
+      and is never pushed; robots not ``present`` (gone from the floor) are ignored and
+      wait.
+    - **Every plan is granted by the traffic rule**: no two robots head for one cell,
+      no two swap, a robot enters an occupied cell only as its occupant leaves; with
+      ``corner_follows=False`` only straight behind it, so a pushed robot must go
+      straight on (and no rotation, which always turns a corner, is planned).
+
+    What it does not promise: shortest paths or a bound on the sum of costs (it is a
+    greedy, one-step planner), or delivery in one-shot runs where a parked robot walls
+    a package off (no planner can).
+
+    Args:
+        grid: The floor.
+        distances: Distance maps of the floor (a fleet's ``env.distances``, shared so
+            that each package's map is built once); a new one by default.
+        corner_follows: Whether traffic grants corner follows (the fleet's
+            ``corner_follows``).
+        seed: Seeds the tie-breaks; the same seed and inputs give the same plans.
+    """
+
+    def __init__(
+        self,
+        grid: WarehouseGrid,
+        *,
+        distances: DistanceMaps | None = None,
+        corner_follows: bool = True,
+        seed: int = 0,
+    ) -> None:
+        self.grid = grid
+        self.distances = DistanceMaps(grid) if distances is None else distances
+        self.corner_follows = bool(corner_follows)
+        self.rng = np.random.default_rng(seed)
+        self._table = neighbour_table(grid)
+        cols = grid.cols
+        #: The action of a move by its change of cell index.
+        self._action_of = {-1: 0, cols: 1, 1: 2, -cols: 3}
+        self._priority: np.ndarray | None = None
+        self._goals: np.ndarray | None = None
+        #: Distances round the robots that hold their cells (parked), and those cells.
+        self._around: DistanceMaps = self.distances
+        self._held = np.empty(0, dtype=np.int64)
+
+    def plan(
+        self,
+        cells: np.ndarray,
+        goals: np.ndarray,
+        movable: np.ndarray | None = None,
+        present: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The next joint action: ``(N,)`` int64 in 0..4, from each robot's ``(row, col)``
+        ``cells`` and ``goals`` (``(N, 2)``); ``movable`` and ``present`` default to all.
+
+        Raises:
+            ValueError: if the number of robots changes between calls (start a new
+                :class:`PIBT` for a new fleet).
+        """
+        cols = self.grid.cols
+        cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+        goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
+        n = len(cells)
+        here = cells[:, 0] * cols + cells[:, 1]
+        goal = goals[:, 0] * cols + goals[:, 1]
+        present = np.ones(n, dtype=bool) if present is None else np.asarray(present, bool)
+        movable = present.copy() if movable is None else np.asarray(movable, bool) & present
+        self._update_priorities(here, goal)
+        distances = self._distances_round(np.sort(here[present & ~movable]))
+
+        # Candidates of every moving robot, nearest to the goal first, in one look-up.
+        moving = np.flatnonzero(movable)
+        candidates = self._table[here[moving]]  # (m, 5): the four moves, then staying
+        targets = np.repeat(goal[moving], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
+        distance = distances.lookup(candidates, targets).astype(np.float64)
+        blocked = candidates[:, :WAIT] == here[moving, None]  # a move into a wall or shelf
+        distance[:, :WAIT][blocked] = np.inf  # UNREACHABLE cells stay last but one
+        order = np.argsort(distance + 0.5 * self.rng.random(distance.shape), axis=1)
+        ranked = np.take_along_axis(candidates, order, axis=1)
+        ranked[np.take_along_axis(np.isinf(distance), order, axis=1)] = NIL
+        ranked_of: list[list[int] | None] = [None] * n
+        for i, row in zip(moving.tolist(), ranked.tolist(), strict=True):
+            ranked_of[i] = row
+
+        here_list = here.tolist()
+        plan = [NIL] * n
+        # Who stands on each cell now, and who will after the step (NIL: nobody).
+        occupied_now = [NIL] * (self.grid.rows * cols)
+        occupied_next = [NIL] * (self.grid.rows * cols)
+        for i in np.flatnonzero(present).tolist():
+            occupied_now[here_list[i]] = i
+        for i in np.flatnonzero(present & ~movable).tolist():  # parked: fixed obstacles
+            plan[i] = here_list[i]
+            occupied_next[here_list[i]] = i
+        for i in moving[np.argsort(-self._priority[moving], kind="stable")].tolist():
+            if plan[i] == NIL:
+                self._pibt(i, here_list, ranked_of, plan, occupied_now, occupied_next)
+
+        actions = np.full(n, WAIT, dtype=np.int64)
+        for i in moving.tolist():
+            step = plan[i] - here_list[i]
+            if step:
+                actions[i] = self._action_of[step]
+        return actions
+
+    def _distances_round(self, held: np.ndarray) -> DistanceMaps:
+        """Distances on the floor with the ``held`` cells (parked robots, which never move
+        again) as obstacles: without them a robot whose shortest path runs through a
+        parked robot would wait beside it for ever. Rebuilt when the held cells change."""
+        if not np.array_equal(held, self._held):
+            self._held = held
+            self._around = self.distances
+            if held.size:
+                cols = self.grid.cols
+                floor = np.full((self.grid.rows, cols), ".", dtype="<U1")
+                if self.grid.shelves:
+                    shelves = np.array(sorted(self.grid.shelves))
+                    floor[shelves[:, 0], shelves[:, 1]] = "#"
+                floor[held // cols, held % cols] = "#"
+                rows = ["".join(row) for row in floor.tolist()]
+                with contextlib.suppress(ValueError):  # held cells that leave no floor
+                    self._around = DistanceMaps(
+                        WarehouseGrid.from_layout(rows), max_bytes=self.distances.max_bytes
+                    )
+        return self._around
+
+    def _update_priorities(self, here: np.ndarray, goal: np.ndarray) -> None:
+        """Grow the priority of every robot still on its way to the same goal; a robot
+        with a new goal (or on its goal) falls back to its tie-breaker."""
+        n = len(here)
+        if self._priority is None or len(self._priority) != n:
+            if self._priority is not None:
+                raise ValueError(
+                    f"this planner planned for {len(self._priority)} robots, now {n}: "
+                    "use a new PIBT for a new fleet"
+                )
+            self._priority = self.rng.random(n)
+            self._goals = goal.copy()
+            return
+        fresh = (goal != self._goals) | (here == goal)
+        self._priority[fresh] -= np.floor(self._priority[fresh])
+        self._priority[~fresh] += 1
+        self._goals = goal.copy()
+
+    def _pibt(
+        self,
+        root: int,
+        here: list[int],
+        ranked_of: list[Any],
+        plan: list[int],
+        occupied_now: list[int],
+        occupied_next: list[int],
+    ) -> None:
+        """PIBT's recursive ``funcPIBT`` from robot ``root``, with an explicit stack (a
+        chain of pushed robots can be longer than Python's recursion allows)."""
+        straight_only = not self.corner_follows
+        table = self._table
+        action_of = self._action_of
+        # Each frame: [robot, its candidates, the position of the next one to try].
+        stack = [[root, ranked_of[root], 0]]
+        child_planned = None  # the outcome of the frame just popped
+        while stack:
+            frame = stack[-1]
+            i, candidates, position = frame
+            if child_planned is not None:
+                if child_planned:  # the pushed robot got out of the way: done
+                    stack.pop()
+                    child_planned = True
+                    continue
+                child_planned = None  # it stayed in the cell: try the next candidate
+            while position < len(candidates):
+                cell = candidates[position]
+                position += 1
+                if cell == NIL or occupied_next[cell] != NIL:
+                    continue
+                j = occupied_now[cell]
+                if j != NIL and j != i:
+                    if plan[j] == here[i]:
+                        continue  # a swap
+                    if straight_only and plan[j] != NIL and plan[j] - cell != cell - here[i]:
+                        continue  # its occupant leaves round a corner
+                plan[i] = cell
+                occupied_next[cell] = i
+                if j != NIL and j != i and plan[j] == NIL:
+                    frame[2] = position
+                    if straight_only:  # the occupant must carry straight on
+                        ahead = table[cell, action_of[cell - here[i]]]
+                        onward = [int(ahead)] if ahead != cell else []
+                    else:
+                        onward = ranked_of[j]
+                    stack.append([j, onward, 0])
+                    break
+                stack.pop()
+                child_planned = True
+                break
+            else:  # every candidate failed: stay (the caller backtracks)
+                plan[i] = here[i]
+                occupied_next[here[i]] = i
+                stack.pop()
+                child_planned = False
+
+
+def pibt_policy(seed: int = 0) -> Any:
+    """A fleet policy (``FleetPolicy``) that plans with :class:`PIBT`: stateful across
+    the steps of an episode, started afresh when the environment resets (``env.steps``
+    back at 0) or another environment calls it. It reads the fleet's public state only:
+    ``grid``, ``robot_cells``, ``package_cells``, ``parked``, ``on_floor``, ``steps``,
+    ``corner_follows`` and ``distances``."""
+    state: dict[str, Any] = {"env": None, "planner": None, "index": {}}
+
+    def policy(
+        env: WarehouseFleetEnv,
+        observations: dict[str, np.ndarray],
+        infos: dict[str, dict[str, Any]],
+    ) -> dict[str, int]:
+        if state["env"] is not env or env.steps == 0:
+            state["env"] = env
+            state["planner"] = PIBT(env.grid, distances=env.distances,
+                                    corner_follows=env.corner_follows, seed=seed)  # fmt: skip
+            state["index"] = {agent: i for i, agent in enumerate(env.possible_agents)}
+        planner: PIBT = state["planner"]
+        actions = planner.plan(
+            env.robot_cells, env.package_cells, ~env.parked & env.on_floor, env.on_floor
+        ).tolist()
+        index = state["index"]
+        return {agent: actions[index[agent]] for agent in observations}
+
+    return policy
