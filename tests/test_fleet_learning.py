@@ -34,7 +34,7 @@ def test_training_is_seeded_and_reproducible_and_learns_to_deliver():
 def test_the_learned_policy_delivers_near_the_shortest_paths():
     env = fleet.parallel_env(num_robots=2)
     result = train_fleet(env, QLearningConfig(episodes=1200, seed=0))
-    learned = evaluate_fleet(env, greedy_fleet_policy(result.q))
+    learned = evaluate_fleet(env, greedy_fleet_policy(result.q, epsilon=0.0))
     assert learned.delivered >= 30  # of 40
     assert 0 <= learned.delay <= 0.1 * learned.shortest_steps
     assert learned.to_json()["delay"] == learned.delay
@@ -90,3 +90,34 @@ def test_sampled_gaps_are_every_robots_closest_approach_and_need_the_physics():
     assert np.array_equal(gaps, again)  # seeded: the same run
     with pytest.raises(ValueError, match="only the physics world"):
         sample_fleet_gaps(fleet.parallel_env(num_robots=2), random_fleet_policy(1), 5, seed=0)
+
+
+def test_a_neighbours_table_sees_adjacent_robots_and_round_trips(tmp_path):
+    env = fleet.parallel_env(num_robots=2, observation="neighbours")
+    result = train_fleet(env, QLearningConfig(episodes=300, seed=0))
+    assert result.q.shape == (4, 5, 4, 5, 16, 5)
+    assert result.q[..., 1:, :].any()  # states with a robot beside were visited
+    metadata = fleet_table_metadata(env, QLearningConfig(episodes=300), "warehouse-robot-v0")
+    assert metadata["observation"] == "neighbours"
+    save_q_table(tmp_path / "n.npz", result.q, metadata)
+    loaded, loaded_metadata = load_q_table(tmp_path / "n.npz")
+    assert np.array_equal(loaded, result.q)
+    assert loaded_metadata["observation"] == "neighbours"
+    with pytest.raises(QTableError, match=r"expected \(4, 5, 4, 5, 16, 5\)"):
+        save_q_table(tmp_path / "bad.npz", result.q[..., 0, :], metadata)
+    with pytest.raises(QTableError, match="'observation' must be"):
+        save_q_table(tmp_path / "bad.npz", result.q, {**metadata, "observation": "global"})
+    with pytest.raises(ValueError, match="needs observation='local' or 'neighbours'"):
+        train_fleet(fleet.parallel_env(num_robots=2, observation="global"))
+
+
+def test_the_learned_policy_breaks_standoffs_with_its_random_actions():
+    env = fleet.parallel_env(num_robots=3, observation="neighbours")
+    result = train_fleet(env, QLearningConfig(episodes=3000, seed=0))
+    learned = evaluate_fleet(env, greedy_fleet_policy(result.q), seeds=range(20))
+    randomly = evaluate_fleet(env, random_fleet_policy(0), seeds=range(20))
+    shortest = evaluate_fleet(env, shortest_path_policy, seeds=range(20))
+    assert learned.delivered >= max(randomly.delivered, shortest.delivered)
+    assert learned.sum_of_costs < randomly.sum_of_costs / 2
+    with pytest.raises(ValueError, match="epsilon must be in"):
+        greedy_fleet_policy(result.q, epsilon=1.5)

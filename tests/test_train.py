@@ -553,7 +553,9 @@ def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(t
                      cwd=tmp_path)  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert "trained 3 robots sharing one table" in result.stdout
-    assert "shortest paths, waiting when blocked:" in result.stdout
+    table = result.stdout.split("one package per robot:\n")[1].splitlines()
+    assert [line.split()[0] for line in table[:4]] == ["learned", "shortest", "random", "pibt"]
+    assert table[3].startswith("pibt      60/60 packages delivered")
     folder = tmp_path / "fleet"
     assert sorted(p.name for p in folder.iterdir()) == [
         "episode.gif", "learning_curve.png", "qtable.npz", "summary.json",
@@ -590,6 +592,7 @@ def test_a_physics_fleet_run_writes_its_files(tmp_path, capsys):
     summary = json.loads((folder / "summary.json").read_text())
     assert (summary["env_id"], summary["max_cycles"]) == ("warehouse-robot-phys-v0", 20)
     assert load_q_table(folder / "qtable.npz")[0].shape == (2, 3, 2, 3, 5)
+    assert set(summary["evaluation"]) >= {"learned", "shortest_path", "random", "pibt"}
 
 
 @pytest.mark.parametrize(
@@ -598,6 +601,9 @@ def test_a_physics_fleet_run_writes_its_files(tmp_path, capsys):
         (["--robots", "0"], "expected a number of robots from 1 to 10,000, got 0"),
         (["--robots", "3", "--render"], "--render shows one robot in a window"),
         (["--robots", "7", "--layout", "depot"], "7 robots need 7 package cells"),
+        (["--observation", "neighbours"], "it needs --robots 2 or more"),
+        (["--robots", "2", "--observation", "global"], "invalid choice: 'global'"),
+        (["--eval", "x.npz", "--observation", "local"], "the observation comes from the table"),
     ],
 )
 def test_a_fleet_that_cannot_be_trained_exits_2_and_writes_nothing(tmp_path, capsys, args, message):

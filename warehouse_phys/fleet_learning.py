@@ -3,7 +3,9 @@
 Every robot of a :class:`~warehouse_phys.fleet.WarehouseFleetEnv` is an
 independent Q-learner, and all of them share one table over the local
 observation ``[row, col, package_row, package_col]``: shape ``(R, C, R, C, 5)``,
-the four moves and WAIT. How well a policy delivers, and the baseline policies,
+the four moves and WAIT; or, with ``observation="neighbours"``, over the same
+four numbers and the mask of adjacent robots: ``(R, C, R, C, 16, 5)``, so that a
+robot can learn to step aside. How well a policy delivers, and the baseline policies,
 live in :mod:`warehouse_phys.fleet_evaluation` (re-exported here).
 """
 
@@ -35,11 +37,34 @@ from warehouse_phys.qlearning import (
 )
 from warehouse_phys.traffic import FLEET_ACTIONS
 
+#: Masks of a neighbours observation: four bits, one per adjacent cell.
+NEIGHBOUR_MASKS = 16
 
-def new_fleet_q_table(rows: int, cols: int) -> np.ndarray:
-    """An all-zero float64 table for a fleet on a ``rows`` x ``cols`` floor: ``(R, C, R, C, 5)``."""
+
+#: Fleet observations a shared table can be indexed by.
+TABLE_OBSERVATIONS = ("local", "neighbours")
+#: How often the learned fleet policy acts at random by default (see
+#: :func:`greedy_fleet_policy`).
+FLEET_EVAL_EPSILON = 0.1
+
+
+def new_fleet_q_table(rows: int, cols: int, observation: str = "local") -> np.ndarray:
+    """An all-zero float64 table for a fleet on a ``rows`` x ``cols`` floor:
+    ``(R, C, R, C, 5)`` for ``"local"`` observations, ``(R, C, R, C, 16, 5)`` for
+    ``"neighbours"``."""
+    if observation not in TABLE_OBSERVATIONS:
+        raise ValueError(
+            f"a shared table reads {' or '.join(TABLE_OBSERVATIONS)} observations, "
+            f"got {observation!r}"
+        )
     check_training_memory(rows, cols, 0)
-    return np.zeros((rows, cols, rows, cols, FLEET_ACTIONS), dtype=np.float64)
+    masks = (NEIGHBOUR_MASKS,) if observation == "neighbours" else ()
+    if observation == "neighbours" and (rows * cols) ** 2 * NEIGHBOUR_MASKS * 40 > 2**31:
+        raise ValueError(
+            f"a neighbours table of a {rows} x {cols} floor would take "
+            f"{(rows * cols) ** 2 * NEIGHBOUR_MASKS * 40 / 2**30:.1f} GiB; use a smaller floor"
+        )
+    return np.zeros((rows, cols, rows, cols, *masks, FLEET_ACTIONS), dtype=np.float64)
 
 
 def train_fleet(
@@ -60,15 +85,19 @@ def train_fleet(
     ``returns`` the packages delivered, ``reached_target`` whether every robot
     delivered and ``truncated`` whether the time limit came first.
 
+    Ties between equal values are broken at random (from the same generator), so
+    robots in the same situation do not all pick the first action.
+
     Raises:
-        ValueError: if ``env`` gives global observations (the table needs the local ones).
+        ValueError: if ``env`` gives global observations (the table needs the local
+            or the neighbours ones).
     """
-    if env.observation != "local":
-        raise ValueError("a shared table needs observation='local'")
+    if env.observation not in TABLE_OBSERVATIONS:
+        raise ValueError("a shared table needs observation='local' or 'neighbours'")
     config = config or QLearningConfig()
     rows, cols = env.grid.rows, env.grid.cols
     check_training_memory(rows, cols, config.episodes)
-    q = new_fleet_q_table(rows, cols)
+    q = new_fleet_q_table(rows, cols, env.observation)
     rng = agent_rng(config.seed)
     alpha, gamma, episodes = config.alpha, config.gamma, config.episodes
     steps = np.zeros(episodes, dtype=np.int64)
@@ -88,7 +117,11 @@ def train_fleet(
                 if rng.random() < epsilon:
                     actions[agent] = int(rng.integers(FLEET_ACTIONS))
                 else:
-                    actions[agent] = int(q[states[agent]].argmax())
+                    values = q[states[agent]]
+                    best = np.flatnonzero(values == values.max())
+                    actions[agent] = int(
+                        best[rng.integers(len(best))] if len(best) > 1 else best[0]
+                    )
             observations, rewards, terminations, truncations, _ = env.step(actions)
             for agent, action in actions.items():
                 values = q[states[agent]]
@@ -110,15 +143,41 @@ def train_fleet(
     return TrainingResult(q, config, steps, returns, reached, truncated_episodes, epsilons)
 
 
-def greedy_fleet_policy(q: np.ndarray) -> FleetPolicy:
-    """Every robot takes the shared table's best action for its own observation."""
+def greedy_fleet_policy(
+    q: np.ndarray, *, epsilon: float = FLEET_EVAL_EPSILON, seed: int = 0
+) -> FleetPolicy:
+    """Every robot takes the shared table's best action for its own observation (ties
+    broken at random), and with probability ``epsilon`` a uniformly random action.
+
+    The random actions are what breaks a standoff: a deterministic greedy policy in
+    the same joint situation asks for the same refused moves for ever, and robots that
+    see the same thing all decide alike. ``epsilon=0`` gives the plain greedy policy.
+    Draws come from a generator of ``seed``, started afresh at every reset.
+
+    Raises:
+        ValueError: if ``epsilon`` is not in [0, 1].
+    """
+    if not 0.0 <= epsilon <= 1.0:
+        raise ValueError(f"epsilon must be in [0, 1], got {epsilon!r}")
+    state: dict[str, Any] = {"rng": None}
 
     def policy(
         env: WarehouseFleetEnv,
         observations: dict[str, np.ndarray],
         infos: dict[str, dict[str, Any]],
     ) -> dict[str, int]:
-        return {agent: int(q[tuple(obs.tolist())].argmax()) for agent, obs in observations.items()}
+        if state["rng"] is None or env.steps == 0:
+            state["rng"] = np.random.default_rng([seed, 7])
+        rng = state["rng"]
+        actions = {}
+        for agent, obs in observations.items():
+            values = q[tuple(obs.tolist())]
+            if rng.random() < epsilon:
+                actions[agent] = int(rng.integers(FLEET_ACTIONS))
+                continue
+            best = np.flatnonzero(values == values.max())
+            actions[agent] = int(best[rng.integers(len(best))] if len(best) > 1 else best[0])
+        return actions
 
     return policy
 
@@ -146,6 +205,7 @@ def fleet_table_metadata(
         "layout": None if layout is None else list(layout),
         "layout_name": None if layout is None else preset_name(layout),
         "robots": env.num_robots,
+        "observation": env.observation,
     }
 
 

@@ -82,9 +82,22 @@ _METADATA_FIELDS: dict[str, type | tuple[type, ...]] = {
 _FLEET_FIELD = "robots"
 
 
+#: Optional: the fleet observation a shared table reads, ``"local"`` (absent) or
+#: ``"neighbours"`` (an axis of 16 neighbour masks before the actions).
+_OBSERVATION_FIELD = "observation"
+_NEIGHBOUR_MASKS = 16
+
+
 def table_actions(metadata: dict[str, Any]) -> int:
     """Actions in the last axis of the table ``metadata`` describes: 4, or 5 for a fleet's."""
     return 5 if metadata.get(_FLEET_FIELD, 1) > 1 else 4
+
+
+def table_tail(metadata: dict[str, Any]) -> tuple[int, ...]:
+    """The axes of the table ``metadata`` describes after ``(R, C, R, C)``: the actions,
+    after the 16 neighbour masks for a fleet's ``"neighbours"`` table."""
+    masks = (_NEIGHBOUR_MASKS,) if metadata.get(_OBSERVATION_FIELD) == "neighbours" else ()
+    return (*masks, table_actions(metadata))
 
 
 #: Memory a training run may take for its Q-table and its per-episode records [bytes].
@@ -486,7 +499,7 @@ def save_q_table(path: str | os.PathLike[str], q: np.ndarray, metadata: dict[str
         metadata["grid_rows"],
         metadata["grid_cols"],
         where="table",
-        actions=table_actions(metadata),
+        tail=table_tail(metadata),
     )
     text = json.dumps(metadata, sort_keys=True)
     return atomic_write(
@@ -534,7 +547,7 @@ def load_q_table(
                     raise QTableError(
                         f"{path}: the table is for a {grid[0]}x{grid[1]} grid, not {rows}x{cols}"
                     )
-                q = _read_table(archive, *grid, where=str(path), actions=table_actions(metadata))
+                q = _read_table(archive, *grid, where=str(path), tail=table_tail(metadata))
     except ArchiveError as error:
         raise QTableError(f"{path}: {error}") from None
     except OSError as error:
@@ -558,11 +571,11 @@ def _read_metadata(archive: NpzReader, *, where: str) -> dict[str, Any]:
 
 
 def _read_table(
-    archive: NpzReader, rows: int, cols: int, *, where: str, actions: int = 4
+    archive: NpzReader, rows: int, cols: int, *, where: str, tail: tuple[int, ...] = (4,)
 ) -> np.ndarray:
     """The table of an archive for a ``rows`` x ``cols`` grid: real floats, read within
     the size such a table has, as float64, finite."""
-    expected = (rows, cols, rows, cols, actions)
+    expected = (rows, cols, rows, cols, *tail)
     widest = np.dtype(np.longdouble).itemsize
     header, data = archive.read("q", max_data_bytes=math.prod(expected) * widest)
     if header.dtype.kind != "f":
@@ -594,6 +607,12 @@ def _check_metadata(metadata: Any, *, where: str) -> None:
     if not is_count or not 1 <= robots <= MAX_TABLE_ROBOTS:
         raise error(
             f"{where}: metadata {_FLEET_FIELD!r} is not 1 to {MAX_TABLE_ROBOTS:,}: {_short(robots)}"
+        )
+    observation = metadata.get(_OBSERVATION_FIELD, "local")
+    if observation not in ("local", "neighbours") or (observation == "neighbours" and robots == 1):
+        raise error(
+            f"{where}: metadata {_OBSERVATION_FIELD!r} must be 'local' or, for a fleet, "
+            f"'neighbours': {_short(observation)}"
         )
     if metadata["format"] != TABLE_FORMAT:
         raise error(f"{where}: not a {TABLE_FORMAT} file (format {_short(metadata['format'])})")
@@ -659,9 +678,11 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _check_table(q: np.ndarray, rows: int, cols: int, *, where: str, actions: int = 4) -> None:
+def _check_table(
+    q: np.ndarray, rows: int, cols: int, *, where: str, tail: tuple[int, ...] = (4,)
+) -> None:
     error = QTableError
-    expected = (rows, cols, rows, cols, actions)
+    expected = (rows, cols, rows, cols, *tail)
     if q.dtype.kind not in "fiu":
         raise error(f"{where}: table has dtype {q.dtype}, expected numbers")
     if q.shape != expected:

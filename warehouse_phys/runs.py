@@ -22,10 +22,12 @@ import warehouse_phys
 from warehouse_phys.atomic import atomic_write_text
 from warehouse_phys.fleet import WarehouseFleetEnv, parallel_env
 from warehouse_phys.fleet_learning import (
+    FLEET_EVAL_EPSILON,
     FleetEvaluation,
     evaluate_fleet,
     fleet_table_metadata,
     greedy_fleet_policy,
+    random_fleet_policy,
     record_fleet_episode,
     shortest_path_policy,
     train_fleet,
@@ -123,7 +125,7 @@ class Floor:
         )
 
     def make_fleet(
-        self, kind: str, robots: int, render_mode: str | None = None
+        self, kind: str, robots: int, render_mode: str | None = None, observation: str = "local"
     ) -> WarehouseFleetEnv:
         """A fleet of ``robots`` on this floor, in the ``kind`` world, with its time limit."""
         floor: dict[str, Any] = {"grid_rows": self.rows or 4, "grid_cols": self.cols or 5}
@@ -136,6 +138,7 @@ class Floor:
             physics=kind == "phys",
             max_cycles=self.time_limit(),
             render_mode=render_mode,
+            observation=observation,
             **floor,
         )
 
@@ -195,6 +198,8 @@ class FleetRunOutcome:
     result: TrainingResult
     evaluation: FleetEvaluation
     baseline: FleetEvaluation
+    #: Every policy evaluated on the same seeds, by name: learned, shortest, random, pibt.
+    comparison: dict[str, FleetEvaluation]
     seconds: float
     summary: dict[str, Any]
     gif_written: bool
@@ -209,9 +214,11 @@ def train_fleet_run(
     *,
     gif: bool = True,
     on_episode: Callable[[int], None] | None = None,
+    observation: str = "local",
 ) -> FleetRunOutcome:
     """Train a fleet of ``robots`` sharing one table on ``floor`` in the ``kind`` world,
-    evaluate it and the shortest-path policy over fixed seeds, and write the run
+    evaluate it beside the shortest-path policy, the random one and the PIBT planner
+    over fixed seeds (:func:`fleet_comparison`), and write the run
     into ``folder``: the table, the learning curve, a GIF of the fleet's greedy
     episode (unless ``gif`` is false) and ``summary.json``, each atomically.
 
@@ -222,12 +229,12 @@ def train_fleet_run(
     from warehouse_phys.plots import learning_curve_figure, save_figure
 
     started = time.localtime()
-    env = floor.make_fleet(kind, robots)
+    env = floor.make_fleet(kind, robots, observation=observation)
     start = time.perf_counter()
     result = train_fleet(env, config, on_episode=on_episode)
     seconds = time.perf_counter() - start
-    evaluation = evaluate_fleet(env, greedy_fleet_policy(result.q), seeds=EVALUATION_SEEDS)
-    baseline = evaluate_fleet(env, shortest_path_policy, seeds=EVALUATION_SEEDS)
+    comparison = fleet_comparison(env, result.q)
+    evaluation, baseline = comparison["learned"], comparison["shortest"]
     env_id = floor.env_id(kind)
     metadata = fleet_table_metadata(env, config, env_id)
     env.close()
@@ -258,12 +265,15 @@ def train_fleet_run(
         "evaluation": {
             "seeds": [EVALUATION_SEEDS.start, EVALUATION_SEEDS.stop],
             "learned": evaluation.to_json(),
+            "learned_epsilon": FLEET_EVAL_EPSILON,
             "shortest_path": baseline.to_json(),
+            "random": comparison["random"].to_json(),
+            "pibt": comparison["pibt"].to_json(),
         },
         "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
     }
     if gif:
-        shown = floor.make_fleet(kind, robots, render_mode="rgb_array")
+        shown = floor.make_fleet(kind, robots, render_mode="rgb_array", observation=observation)
         try:
             animation, delivered = record_fleet_episode(
                 shown, greedy_fleet_policy(result.q), seed=config.seed, max_steps=GIF_MAX_STEPS
@@ -276,8 +286,25 @@ def train_fleet_run(
     text = json.dumps(summary, indent=2) + "\n"
     folder.write(SUMMARY_FILE, lambda path: atomic_write_text(path, text))
     return FleetRunOutcome(
-        env_id, robots, env.max_cycles, result, evaluation, baseline, seconds, summary, gif
-    )
+        env_id, robots, env.max_cycles, result, evaluation, baseline, comparison, seconds,
+        summary, gif,
+    )  # fmt: skip
+
+
+def fleet_comparison(env: WarehouseFleetEnv, q: Any) -> dict[str, FleetEvaluation]:
+    """The learned table's policy (:func:`greedy_fleet_policy`), the shortest-path
+    baseline, the random policy and the PIBT planner on ``env``, over
+    :data:`EVALUATION_SEEDS`, by name."""
+    from warehouse_phys.planning import pibt_policy
+
+    policies = {
+        "learned": greedy_fleet_policy(q),
+        "shortest": shortest_path_policy,
+        "random": random_fleet_policy(0),
+        "pibt": pibt_policy(0),
+    }
+    return {name: evaluate_fleet(env, policy, seeds=EVALUATION_SEEDS)
+            for name, policy in policies.items()}  # fmt: skip
 
 
 def greedy_episode(floor: Floor, kind: str, q: Any, *, seed: int) -> EpisodeRecording:

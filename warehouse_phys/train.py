@@ -49,7 +49,7 @@ from warehouse_phys.cli import (
     bounded_int,
     floor_from_args,
 )
-from warehouse_phys.fleet_learning import evaluate_fleet, greedy_fleet_policy, shortest_path_policy
+from warehouse_phys.fleet_evaluation import compare_policies
 from warehouse_phys.layouts import PRESETS
 from warehouse_phys.qlearning import (
     Evaluation,
@@ -69,6 +69,7 @@ from warehouse_phys.runs import (
     RUN_FILES,
     SUMMARY_FILE,
     TABLE_FILE,
+    fleet_comparison,
     train_fleet_run,
     train_run,
 )
@@ -132,6 +133,13 @@ def build_parser() -> argparse.ArgumentParser:
         "the traffic rule (see warehouse_phys.fleet)",
     )
     parser.add_argument(
+        "--observation",
+        choices=("local", "neighbours"),
+        default=None,
+        help="a fleet's shared table reads each robot's local view (default), or that and "
+        "which adjacent cells hold a robot ('neighbours': a table 16 times larger)",
+    )
+    parser.add_argument(
         "--alpha",
         type=_fraction(low_open=True),
         default=defaults.alpha,
@@ -182,6 +190,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         if args.eval is not None:
+            if args.observation is not None:
+                raise UsageError(
+                    "--eval: the observation comes from the table; leave out --observation"
+                )
             return _evaluate_saved(args)
         return _train(args, run)
     except (UsageError, RunFolderError) as error:
@@ -212,6 +224,10 @@ def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
     episodes = args.episodes
     if args.robots > 1:
         return _train_fleet(args, run, kind, floor)
+    if args.observation is not None:
+        raise UsageError(
+            "--observation chooses what a fleet's robots see; it needs --robots 2 or more"
+        )
     if episodes is None:
         episodes = PRESETS[floor.preset].training_episodes if floor.preset else 1000
     config = QLearningConfig(episodes=episodes, alpha=args.alpha, gamma=args.gamma, seed=args.seed)
@@ -256,6 +272,7 @@ def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floo
     robots = args.robots
     if args.render:
         raise UsageError("--render shows one robot in a window; leave it out with --robots")
+    args.observation = args.observation or "local"
     config = QLearningConfig(
         episodes=args.episodes or FLEET_EPISODES, alpha=args.alpha, gamma=args.gamma, seed=args.seed
     )
@@ -269,7 +286,8 @@ def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floo
     folder, outcome = _in_run_folder(
         args, run, kind, label, config.episodes, f"{robots} robots",
         lambda folder, on_episode: train_fleet_run(
-            folder, floor, kind, robots, config, gif=args.gif, on_episode=on_episode
+            folder, floor, kind, robots, config, gif=args.gif, on_episode=on_episode,
+            observation=args.observation,
         ),
     )  # fmt: skip
     if not args.quiet:
@@ -280,8 +298,8 @@ def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floo
             f"{int(result.reached_target.sum())} episodes, {int(result.truncated.sum())} cut at "
             f"{outcome.max_cycles} steps"
         )
-        print(f"learned policy, {len(EVALUATION_SEEDS)} seeds: {outcome.evaluation.summary()}")
-        print(f"shortest paths, waiting when blocked: {outcome.baseline.summary()}")
+        print(f"evaluated over {len(EVALUATION_SEEDS)} seeds, one package per robot:")
+        print(compare_policies(outcome.comparison))
         written = [CURVE_FILE, *([GIF_FILE] if outcome.gif_written else []), SUMMARY_FILE]
         print(f"wrote {folder.path / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     return 0
@@ -412,11 +430,10 @@ def _evaluate_saved_fleet(
         raise UsageError("--render shows one robot in a window; a fleet's table has no window")
     robots = metadata["robots"]
     try:
-        env = floor.make_fleet(kind, robots)
+        env = floor.make_fleet(kind, robots, observation=metadata.get("observation", "local"))
     except ValueError as error:
         raise UsageError(f"--eval: {error}") from None
-    learned = evaluate_fleet(env, greedy_fleet_policy(q), seeds=EVALUATION_SEEDS)
-    baseline = evaluate_fleet(env, shortest_path_policy, seeds=EVALUATION_SEEDS)
+    comparison = fleet_comparison(env, q)
     env.close()
     if not args.quiet:
         print(
@@ -424,8 +441,7 @@ def _evaluate_saved_fleet(
             f"{metadata['grid_rows']}x{metadata['grid_cols']}, {metadata['episodes']} episodes, "
             f"seed {metadata['seed']}) over {len(EVALUATION_SEEDS)} seeds"
         )
-        print(f"learned policy: {learned.summary()}")
-        print(f"shortest paths, waiting when blocked: {baseline.summary()}")
+        print(compare_policies(comparison))
     return 0
 
 
