@@ -9,7 +9,7 @@ import warehouse_phys
 from tests.test_render import robot_centre
 from warehouse_phys import Action, fleet
 from warehouse_phys import play as play_cli
-from warehouse_phys.fleet_learning import shortest_path_policy
+from warehouse_phys.planning import PIBT
 from warehouse_phys.play import HUD_LINE_PX, HUD_LINES, FleetPlaySession, PlaySession
 from warehouse_phys.traffic import WAIT
 
@@ -316,10 +316,11 @@ def fleet_session():
         session.close()
 
 
-def test_a_person_drives_robot_0_while_the_others_take_shortest_paths(fleet_session):
+def test_a_person_drives_robot_0_while_the_others_follow_the_planner(fleet_session):
     session = fleet_session(seed=0)
     reference = fleet.parallel_env(num_robots=3)
-    observations, infos = reference.reset(seed=0)
+    reference.reset(seed=0)
+    planner = PIBT(reference.grid, distances=reference.distances, seed=0)
     assert session.hud_lines() == [
         "step 0   delivered 0/3",
         "episode 1: drive the red robot to the red package",
@@ -328,14 +329,32 @@ def test_a_person_drives_robot_0_while_the_others_take_shortest_paths(fleet_sess
     for k, action in [(pygame.K_RIGHT, Action.RIGHT), (pygame.K_SPACE, WAIT),
                       (pygame.K_DOWN, Action.DOWN)]:  # fmt: skip
         session.handle(key(k))
-        live = {a: o for a, o in observations.items() if a in reference.agents}
-        actions = shortest_path_policy(reference, {a: o for a, o in live.items() if a != "robot_0"},
-                                       infos)  # fmt: skip
+        live = reference.on_floor & ~reference.parked
+        planned = planner.plan(reference.robot_cells, reference.package_cells, live,
+                               reference.on_floor, requests={0: int(action)})  # fmt: skip
+        actions = {a: int(planned[i]) for i, a in enumerate(reference.possible_agents)
+                   if a in reference.agents}  # fmt: skip
         actions["robot_0"] = int(action)
-        observations, *_, infos = reference.step(actions)
+        reference.step(actions)
         assert np.array_equal(session.env.state(), reference.state())
     assert session.steps == 3
     assert np.array_equal(window_pixels()[: 4 * 64 + 24], session.env.render())
+
+
+def test_the_planner_moves_teammates_out_of_the_persons_way():
+    env = fleet.parallel_env(num_robots=2, grid_rows=3, grid_cols=4)
+    env.reset(seed=0)
+    env._cells = np.array([(1, 0), (1, 1)])  # robot_1 stands right of robot_0
+    env._packages = np.array([(1, 3), (2, 0)])  # and wants to go the other way
+    planner = PIBT(env.grid, distances=env.distances, seed=0)
+    for _ in range(3):  # the person keeps pressing RIGHT
+        planned = planner.plan(env.robot_cells, env.package_cells, requests={0: 2})
+        actions = {"robot_0": 2, "robot_1": int(planned[1])}
+        if "robot_1" not in env.agents:
+            del actions["robot_1"]
+        _, _, _, _, infos = env.step(actions)
+        assert not infos["robot_0"]["refused"]
+    assert env.robot_cells[0].tolist() == [1, 3]
 
 
 def test_a_fleet_episode_ends_when_every_package_is_delivered(fleet_session):

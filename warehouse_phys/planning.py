@@ -101,9 +101,16 @@ class PIBT:
         goals: np.ndarray,
         movable: np.ndarray | None = None,
         present: np.ndarray | None = None,
+        *,
+        requests: dict[int, int] | None = None,
     ) -> np.ndarray:
         """The next joint action: ``(N,)`` int64 in 0..4, from each robot's ``(row, col)``
         ``cells`` and ``goals`` (``(N, 2)``); ``movable`` and ``present`` default to all.
+
+        ``requests`` maps robots to the action someone else chose for them (a person at
+        the keyboard): they plan first, with that move as their only candidate, so the
+        robots in their way move aside; a request that cannot be met leaves the robot
+        where it is.
 
         Raises:
             ValueError: if the number of robots changes between calls (start a new
@@ -144,7 +151,13 @@ class PIBT:
         for i in np.flatnonzero(present & ~movable).tolist():  # parked: fixed obstacles
             plan[i] = here_list[i]
             occupied_next[here_list[i]] = i
-        for i in moving[np.argsort(-self._priority[moving], kind="stable")].tolist():
+        requested = {i: a for i, a in (requests or {}).items() if movable[i]}
+        for i, action in requested.items():
+            ranked_of[i] = [int(self._table[here_list[i], action])]
+            if action != WAIT and ranked_of[i][0] == here_list[i]:
+                ranked_of[i] = [here_list[i]]  # into a wall or shelf: it stays
+        by_priority = moving[np.argsort(-self._priority[moving], kind="stable")].tolist()
+        for i in [*requested, *by_priority]:
             if plan[i] == NIL:
                 self._pibt(i, here_list, ranked_of, plan, occupied_now, occupied_next)
 

@@ -15,8 +15,9 @@ window) quits.
     python -m warehouse_phys.play --robots 4
 
 With ``--robots N`` a fleet shares the floor: you drive ``robot_0`` (red, like
-its package; space waits) and the others follow shortest paths, waiting when
-blocked, under the fleet's traffic rule.
+its package; space waits) and the others follow the PIBT planner
+(:mod:`warehouse_phys.planning`), which moves them out of your way, under the
+fleet's traffic rule.
 
 The first episode is reset with ``--seed``, the next ones continue its random
 stream, so a seed replays the same sequence of targets. Bad arguments end
@@ -46,8 +47,8 @@ from warehouse_phys.cli import (
 )
 from warehouse_phys.envs import WarehousePhysicsEnv
 from warehouse_phys.fleet import WarehouseFleetEnv
-from warehouse_phys.fleet_learning import shortest_path_policy
 from warehouse_phys.grid import Action
+from warehouse_phys.planning import PIBT
 from warehouse_phys.render import NoDisplayError, check_display, fit_text, import_pygame
 from warehouse_phys.traffic import WAIT
 
@@ -218,8 +219,9 @@ class PlaySession:
 
 
 class FleetPlaySession(PlaySession):
-    """A fleet in the window: the person drives ``robot_0``, the others follow
-    :func:`~warehouse_phys.fleet_learning.shortest_path_policy`.
+    """A fleet in the window: the person drives ``robot_0``, the others follow the
+    :class:`~warehouse_phys.planning.PIBT` planner, which plans the person's move first
+    and pushes teammates out of its way, so ``robot_0`` is never stuck behind one.
 
     Arrows move ``robot_0`` (red, like its package), space makes it wait; every
     key is one joint step of the whole fleet under the traffic rule. Once
@@ -236,16 +238,23 @@ class FleetPlaySession(PlaySession):
     ) -> None:
         self.delivered = 0
         self.refused = False
+        self._planner: PIBT | None = None
         super().__init__(env, seed=seed, title=title)
         self.action_keys[self._pg.K_SPACE] = WAIT
         self._physics = env.physics
         self._fps = 1 / env.config.dt if env.physics else float(env.metadata["render_fps"])
 
     def step(self, action: int) -> None:
-        """One joint step: ``robot_0`` takes ``action``, the others their shortest paths."""
+        """One joint step: ``robot_0`` takes ``action``, the others what the planner says."""
         env = self.env
-        others = {agent: obs for agent, obs in self.obs.items() if agent != "robot_0"}
-        actions = shortest_path_policy(env, others, self.info)
+        if self._planner is None or env.steps == 0:
+            self._planner = PIBT(env.grid, distances=env.distances,
+                                 corner_follows=env.corner_follows, seed=0)  # fmt: skip
+        planned = self._planner.plan(
+            env.robot_cells, env.package_cells, ~env.parked & env.on_floor, env.on_floor,
+            requests={0: int(action)} if "robot_0" in env.agents else None,
+        ).tolist()  # fmt: skip
+        actions = {agent: planned[int(agent.rsplit("_", 1)[1])] for agent in env.agents}
         if "robot_0" in env.agents:
             actions["robot_0"] = int(action)
         observations, rewards, _, truncations, infos = env.step(actions)
@@ -308,7 +317,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_robots_argument(
         parser,
-        what="a fleet of this many robots: you drive robot_0 (red), the others take shortest paths",
+        what="a fleet of this many robots: you drive robot_0 (red), the others follow the "
+        "planner and make way",
     )
     return parser
 
