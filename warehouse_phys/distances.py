@@ -97,8 +97,9 @@ class DistanceMaps:
 
     @property
     def nbytes(self) -> int:
-        """The memory the maps take now [bytes]: at most ``max_bytes``."""
-        return int(self._table.nbytes)
+        """The memory the maps take now [bytes]: every row a map was ever built in (rows
+        of evicted maps are reused), at most ``max_bytes``."""
+        return len(self._goal_of_row) * self._map_bytes
 
     def prepare(self, goals: np.ndarray) -> None:
         """Make sure the map of every goal in ``goals`` (cell indices) is kept; computes the
@@ -188,15 +189,18 @@ class DistanceMaps:
             free_rows = np.flatnonzero(self._goal_of_row < 0)
         for goal, row in zip(missing.tolist(), free_rows[: len(missing)].tolist(), strict=True):
             self._table[row, :-1] = self._breadth_first(goal)
+            self._table[row, -1] = UNREACHABLE  # the column of every shelf
             self._goal_of_row[row] = goal
             self._row_of_goal[goal] = row
 
     def _grow(self, capacity: int) -> None:
+        """Room for ``capacity`` maps. The table is reserved once for all the maps
+        ``max_bytes`` holds, as address space that the system commits only as rows are
+        written, so growing never copies the maps already built (copying 900 MiB of them
+        cost seconds in a step)."""
         old = len(self._goal_of_row)
-        table = np.empty((capacity, self._table.shape[1]), dtype=np.uint16)
-        table[:old] = self._table
-        table[:, -1] = UNREACHABLE
-        self._table = table
+        if len(self._table) < self._max_maps:
+            self._table = np.empty((self._max_maps, self._table.shape[1]), dtype=np.uint16)
         self._goal_of_row = np.concatenate([self._goal_of_row, np.full(capacity - old, -1)])
         self._last_used = np.concatenate(
             [self._last_used, np.zeros(capacity - old, dtype=np.int64)]
