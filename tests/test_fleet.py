@@ -404,3 +404,21 @@ def test_the_aec_form_refuses_a_bad_action_before_anything_changes():
     env.step(WAIT)  # still robot_0's turn: nothing was stored
     env.step(WAIT)
     assert env.unwrapped.steps == 1
+
+
+def test_frames_mark_a_delivered_robot_and_keep_colours_apart():
+    from warehouse_phys.render import DELIVERED_FRAME, FLEET_COLOURS
+
+    colours = np.array(FLEET_COLOURS, dtype=float)
+    apart = np.linalg.norm(colours[:, None] - colours[None, :], axis=-1)
+    np.fill_diagonal(apart, np.inf)
+    assert apart.min() > 60  # the first eight stay distinct
+    assert np.linalg.norm(colours - 245, axis=-1).min() > 60  # none passes for the floor
+    env = fleet.parallel_env(num_robots=2, render_mode="rgb_array", cell_px=32)
+    env.reset(seed=0)
+    env._cells = np.array([(1, 1), (3, 4)])
+    env._packages = np.array([(1, 2), (2, 2)])
+    env.step({"robot_0": 2, "robot_1": WAIT})  # robot_0 delivers on (1, 2) and parks
+    frame = env.render()
+    assert (frame[1 * 32 + 1, 2 * 32 + 1] == DELIVERED_FRAME).all()
+    assert not (frame[3 * 32 + 1, 4 * 32 + 1] == DELIVERED_FRAME).all()

@@ -284,3 +284,22 @@ def test_large_benchmark_maps_read_quickly_and_whole():
     endpoints = layouts_module.read_movingai(MAPS / "warehouse-large-140-500.map",
                                              packages="endpoints")  # fmt: skip
     assert len(endpoints.target_cells) == 352
+
+
+def test_every_environment_takes_a_map_file(tmp_path):
+    import numpy as np
+
+    from warehouse_phys import fleet
+
+    path = write(tmp_path, MAP_TEXT)
+    for env_id in ("warehouse-robot-v0", "warehouse-robot-phys-v0"):
+        env = gym.make(env_id, layout=str(path))
+        assert env.unwrapped.grid.shelves == {(0, 0), (1, 1)}
+        env.close()
+    vector = gym.make_vec("warehouse-robot-v0", num_envs=3, layout=str(path))
+    observations, _ = vector.reset(seed=0)
+    assert observations.shape == (3, 4)
+    vector.close()
+    robots = fleet.parallel_env(num_robots=2, layout=str(path), starts="random")
+    robots.reset(seed=0)
+    assert not np.isin([0, 5], robots.robot_cells[:, 0] * 4 + robots.robot_cells[:, 1]).any()

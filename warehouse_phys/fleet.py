@@ -425,7 +425,9 @@ class WarehouseFleetEnv(ParallelEnv):
         positions = (
             self.world.positions().tolist() if self.world is not None else self._cells.tolist()
         )
-        return self._renderer.fleet_rgb_array(positions, self._package_list())
+        return self._renderer.fleet_rgb_array(
+            positions, self._package_list(), delivered=self._parked.tolist()
+        )
 
     def move_frames(self) -> list[np.ndarray]:
         """The frames of the last step's motion in the physics world, one per physics step

@@ -121,9 +121,7 @@ class FleetEvaluation:
         return self.episodes * self.robots - self.delivered
 
     def summary(self) -> str:
-        walled = (
-            f", {self.walled_off} of them walled off by parked robots" if self.walled_off else ""
-        )
+        walled = f" ({self.walled_off} walled off by parked robots)" if self.walled_off else ""
         return (
             f"{self.delivered}/{self.episodes * self.robots} packages delivered{walled}; "
             f"sum of costs {self.sum_of_costs} against {self.all_shortest_steps} on shortest "

@@ -437,3 +437,22 @@ def congestion_figure(grid: WarehouseGrid, waits: np.ndarray, title: str = "") -
     ax.set_yticks([])
     ax.set_title(title or f"Congestion: {int(waits.sum()):,} waits")
     return figure
+
+
+def throughput_by_robots_figure(
+    throughput: Mapping[int, float], published: Mapping[str, float] | None = None, title: str = ""
+) -> Figure:
+    """Throughput [deliveries/step] against the number of robots, with ``published``
+    figures (name to value) drawn as dashed lines for comparison."""
+    figure = _figure((6, 3))
+    ax = figure.add_subplot()
+    robots = sorted(throughput)
+    ax.plot(robots, [throughput[n] for n in robots], "o-", color="#0072B2", label="measured")
+    palette = ("#D55E00", "#009E73", "#CC79A7", "#E69F00")
+    for i, (name, value) in enumerate((published or {}).items()):
+        ax.axhline(value, color=palette[i % len(palette)], linestyle="--", linewidth=1, label=name)
+    ax.set_xlabel("robots")
+    ax.set_ylabel("deliveries per step")
+    ax.set_title(title or "Throughput against fleet size")
+    ax.legend(fontsize="small")
+    return figure

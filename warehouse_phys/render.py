@@ -157,15 +157,19 @@ def fit_text(text: pygame.Surface, width: int) -> pygame.Surface:
 
 
 #: The colours of a fleet's robots and their packages, robot by robot (RGB).
+#: A fleet's robot colours, robot ``i`` in ``FLEET_COLOURS[i % 8]`` [RGB]: Okabe and Ito's
+#: palette, which colour-blind eyes tell apart (vermillion first: robot 0 is the one a
+#: person drives in ``play``), with a violet for its black, which would pass for a shelf.
+#: None is close to the floor's light tiles or the shelves' dark grey.
 FLEET_COLOURS: tuple[tuple[int, int, int], ...] = (
-    (230, 25, 75),
-    (60, 180, 75),
-    (0, 130, 200),
-    (245, 130, 48),
-    (145, 30, 180),
-    (70, 200, 200),
-    (240, 50, 230),
-    (150, 150, 40),
+    (213, 94, 0),
+    (0, 114, 178),
+    (0, 158, 115),
+    (230, 159, 0),
+    (204, 121, 167),
+    (86, 180, 233),
+    (240, 228, 66),
+    (120, 94, 240),
 )
 
 
@@ -332,9 +336,12 @@ class WarehouseRenderer:
         robots: Sequence[Sequence[float]],
         packages: Sequence[tuple[int, int]],
         status: str = "",
+        delivered: Sequence[bool] | None = None,
     ) -> np.ndarray:
         """A frame of a fleet: robot ``i`` at ``robots[i]`` (cell units, as in :meth:`draw`)
-        in a ring of colour ``FLEET_COLOURS[i]``, its package framed in the same colour."""
+        in a ring of colour ``FLEET_COLOURS[i]``, its package framed in the same colour (the
+        frame stays visible round a robot standing on it); a robot whose ``delivered`` is
+        true stands in a green frame, as the single robot's delivery is shown."""
         pg = self._ensure_pygame()
         surface = self._floor_and_status(status, None)
         px = self.cell_px
@@ -350,6 +357,9 @@ class WarehouseRenderer:
             surface.blit(self._robot, (round(col * px), round(row * px)))
             # A ring of its colour over the sprite, which hides most of the disc.
             pg.draw.circle(surface, colour, centre, px * 9 // 20, width=max(2, px // 12))
+            if delivered is not None and delivered[i]:
+                corner = (round(col * px), round(row * px))
+                pg.draw.rect(surface, DELIVERED_FRAME, (*corner, px, px), width=2 * border)
         return np.ascontiguousarray(pg.surfarray.pixels3d(surface).transpose(1, 0, 2))
 
     # ------------------------------------------------------------------- window
@@ -454,13 +464,8 @@ class WarehouseRenderer:
         return max(4, self.cell_px // 8)  # [px] left and right of the status text
 
 
-#: Robot colours for map frames: Okabe and Ito's colour-blind-safe palette (less its
-#: black and yellow, too close to shelves and packages), cycled [RGB].
-MAP_ROBOT_COLOURS = np.array(
-    [(230, 159, 0), (86, 180, 233), (0, 158, 115), (0, 114, 178), (213, 94, 0),
-     (204, 121, 167), (240, 228, 66), (153, 153, 255)],
-    dtype=np.uint8,
-)  # fmt: skip
+#: Robot colours for map frames: :data:`FLEET_COLOURS` as an array [RGB].
+MAP_ROBOT_COLOURS = np.array(FLEET_COLOURS, dtype=np.uint8)
 MAP_FLOOR = (245, 245, 240)  # RGB
 MAP_SHELF = (70, 70, 80)  # RGB
 MAP_PACKAGE = (40, 40, 40)  # RGB: a dark dot, left visible round a robot standing on it

@@ -144,10 +144,12 @@ def simulate(
     on_step: Any = None,
     name: str = "policy",
     layout: str = "",
+    cell_px: int | None = None,
 ) -> tuple[Simulation, list[np.ndarray]]:
     """Play ``policy`` on ``env`` from ``env.reset(seed=seed)`` for ``steps`` joint steps
     (fewer if every robot finished); returns the measures and up to ``frames`` map frames
-    (:func:`~warehouse_phys.render.fleet_map_frame`), evenly spread over the run.
+    (:func:`~warehouse_phys.render.fleet_map_frame`, ``cell_px`` pixels a cell, by default
+    what fits 1000 pixels), evenly spread over the run.
     ``on_step()`` is called after each step (a progress bar)."""
     from warehouse_phys.render import fleet_map_frame
 
@@ -158,7 +160,7 @@ def simulate(
     every = max(1, -(-steps // frames)) if frames else 0
 
     def picture() -> None:
-        pictures.append(fleet_map_frame(grid, env.robot_cells, env.package_cells,
+        pictures.append(fleet_map_frame(grid, env.robot_cells, env.package_cells, cell_px=cell_px,
                                         parked=env.parked, on_floor=env.on_floor))  # fmt: skip
 
     if frames:
