@@ -211,6 +211,7 @@ def test_main_defaults_to_the_physics_and_takes_a_layout(monkeypatch):
         (["--layout", "nowhere"], "--layout 'nowhere' is neither a preset"),
         (["--layout", "maze", "--cols", "4"], "--rows and --cols come from the layout"),
         (["--episodes", "3"], "unrecognized arguments: --episodes 3"),
+        (["--rows", "512"], "frames of 320x32792 pixels, more than a window can draw"),
     ],
 )
 def test_bad_arguments_exit_2_with_one_line_and_no_window(args, message, capsys):

@@ -48,3 +48,13 @@ def test_a_path_that_is_a_file_is_refused(tmp_path):
     (tmp_path / "f").write_text("x")
     with pytest.raises(RunFolderError, match="exists and is not a folder"):
         RunFolder(tmp_path / "f", FILES).open()
+
+
+def test_a_name_too_long_and_a_dangling_link_are_refused_in_one_line(tmp_path):
+    with pytest.raises(RunFolderError, match=r"characters\): File name too long"):
+        RunFolder(tmp_path / ("x" * 300), ["a"]).open()
+    link = tmp_path / "link"
+    link.symlink_to(tmp_path / "nowhere" / "run")
+    with pytest.raises(RunFolderError, match=r"is a link to .*nowhere/run, which does not exist"):
+        RunFolder(link, ["a"], new=True).open()
+    assert not (tmp_path / "nowhere").exists()

@@ -49,7 +49,16 @@ from warehouse_phys.envs import WarehousePhysicsEnv
 from warehouse_phys.fleet import WarehouseFleetEnv
 from warehouse_phys.grid import Action
 from warehouse_phys.planning import PIBT
-from warehouse_phys.render import NoDisplayError, check_display, fit_text, import_pygame
+from warehouse_phys.render import (
+    DEFAULT_CELL_PX,
+    MAX_FRAME_PIXELS,
+    MAX_FRAME_SIDE_PX,
+    FrameTooLargeError,
+    NoDisplayError,
+    check_display,
+    fit_text,
+    import_pygame,
+)
 from warehouse_phys.traffic import WAIT
 
 PROG = "python -m warehouse_phys.play"
@@ -333,6 +342,16 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         env = make_env(floor, args.env, args.robots)
+    except FrameTooLargeError as error:  # play draws cells of DEFAULT_CELL_PX pixels
+        grid = floor.grid()
+        print(
+            f"{PROG}: error: a {grid.rows}x{grid.cols} floor in play's {DEFAULT_CELL_PX}-pixel "
+            f"cells makes frames of {error.size[0]}x{error.size[1]} pixels, more than a window "
+            f"can draw (at most {MAX_FRAME_SIDE_PX} a side and {MAX_FRAME_PIXELS:,} in all): "
+            "play a smaller floor",
+            file=sys.stderr,
+        )
+        return 2
     except ValueError as error:  # a floor too small for the fleet
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2

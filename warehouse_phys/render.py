@@ -173,6 +173,15 @@ FLEET_COLOURS: tuple[tuple[int, int, int], ...] = (
 )
 
 
+class FrameTooLargeError(ValueError):
+    """A floor whose frames at the chosen cell size are too large to draw; ``size`` is
+    the frame's ``(width, height)`` [px]."""
+
+    def __init__(self, message: str, size: tuple[int, int]) -> None:
+        super().__init__(message)
+        self.size = size
+
+
 class WarehouseRenderer:
     """Draws warehouse frames and, in ``human`` mode, owns the window.
 
@@ -250,11 +259,12 @@ class WarehouseRenderer:
                 :data:`MAX_FRAME_SIDE_PX` or hold more than :data:`MAX_FRAME_PIXELS`.
         """
         if self.frame_too_large:
-            raise ValueError(
+            raise FrameTooLargeError(
                 f"a {self.rows}x{self.cols} floor at cell_px={self.cell_px} makes frames of "
                 f"{self.width}x{self.height} pixels, more than can be drawn (at most "
                 f"{MAX_FRAME_SIDE_PX} pixels a side and {MAX_FRAME_PIXELS} in all); "
-                f"lower cell_px (at least {MIN_CELL_PX}) or render a smaller floor"
+                f"lower cell_px (at least {MIN_CELL_PX}) or render a smaller floor",
+                (self.width, self.height),
             )
 
     def __getstate__(self) -> dict[str, Any]:

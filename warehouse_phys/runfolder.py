@@ -82,7 +82,13 @@ class RunFolder:
             RunWriteError: if the folder cannot be created or written.
         """
         path = self.path
-        if path.exists() and not path.is_dir():
+        try:
+            exists = path.exists()
+        except OSError as error:  # a name too long for the file system, say
+            raise RunFolderError(f"{_short(path)}: {error.strerror or error}") from None
+        if not exists and path.is_symlink():
+            raise RunFolderError(f"{path} is a link to {os.readlink(path)}, which does not exist")
+        if exists and not path.is_dir():
             raise RunFolderError(f"{path} exists and is not a folder")
         try:
             if self.new:
@@ -184,6 +190,12 @@ class RunFolder:
             probe.unlink()
         except OSError as error:
             raise _write_error(self.path, error) from None
+
+
+def _short(path: Path) -> str:
+    """``path`` for a one-line message: at most 80 characters."""
+    text = str(path)
+    return text if len(text) <= 80 else f"{text[:38]}...{text[-38:]} ({len(text)} characters)"
 
 
 def _write_error(path: Path, error: OSError) -> RunWriteError:
