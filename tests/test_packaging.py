@@ -58,13 +58,27 @@ def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
     assert out[1] == "(280, 320, 3)"
 
 
-def test_readme_python_examples_run(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)  # examples may write files
+def test_readme_python_examples_run_as_scripts(tmp_path):
+    """Every python block of the README, saved as a script of its own and run as a reader
+    would run it (``python example.py``): a block that starts processes must survive
+    being imported again by them under ``spawn``."""
     readme = (ROOT / "README.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", readme, re.DOTALL)
     assert len(blocks) >= 2
-    for block in blocks:  # each on its own, as a reader would paste it
-        exec(compile(block, "README.md", "exec"), {})
+    running = []
+    for i, block in enumerate(blocks):
+        folder = tmp_path / f"example{i}"  # examples may write files
+        folder.mkdir()
+        (folder / "example.py").write_text(block)
+        running.append(
+            subprocess.Popen(
+                [sys.executable, "example.py"], cwd=folder, stdout=subprocess.DEVNULL,
+                stderr=subprocess.PIPE, text=True,
+            )
+        )  # fmt: skip
+    for i, process in enumerate(running):
+        _, err = process.communicate(timeout=120)
+        assert process.returncode == 0, f"README python block {i}:\n{err}"
 
 
 @pytest.mark.parametrize("check", [["check"], ["format", "--check"]])
