@@ -4,6 +4,7 @@ import io
 import json
 import os
 import pickle
+import time
 import zipfile
 
 import gymnasium as gym
@@ -18,6 +19,7 @@ from warehouse_phys.qlearning import (
     QTableError,
     check_training_memory,
     evaluate,
+    greedy_action,
     greedy_actions,
     load_q_table,
     new_q_table,
@@ -679,3 +681,49 @@ def test_train_checks_the_budget_before_it_allocates():
     env = gym.make(GRID_ID)
     with pytest.raises(ValueError, match=r"more than the 2\.0 GiB a training run may take"):
         train(env, QLearningConfig(episodes=999_999_999_999))
+
+
+def step_by_step_evaluation(env, q, max_steps):
+    """The evaluation as an agent plays it: reset on each target, step the environment."""
+    results = []
+    for target in env.unwrapped.grid.target_cells:
+        obs, info = env.reset(options={"target": target})
+        steps = None
+        for step in range(1, max_steps + 1):
+            obs, _, terminated, truncated, _ = env.step(greedy_action(q, obs))
+            if terminated:
+                steps = step
+                break
+            if truncated:
+                break
+        results.append((tuple(target), steps, int(info["optimal_steps"])))
+    return results
+
+
+@pytest.mark.parametrize("layout", [None, "maze"])
+@pytest.mark.parametrize("seed", range(3))
+def test_the_evaluation_equals_playing_every_target_step_by_step(layout, seed):
+    kwargs = {"layout": layout} if layout else {"grid_rows": 4, "grid_cols": 5}
+    env = gym.make("warehouse-robot-v0", **kwargs)
+    rows, cols = env.unwrapped.grid.rows, env.unwrapped.grid.cols
+    rng = np.random.default_rng(seed)
+    q = rng.random((rows, cols, rows, cols, 4)) * (rng.random((rows, cols, rows, cols, 1)) < 0.7)
+    if seed == 2:
+        q = train(env, QLearningConfig(episodes=300, seed=seed)).q  # partly learned
+    fast = evaluate(env, q, max_steps=60)
+    expected = step_by_step_evaluation(env, q, 60)
+    assert [(tuple(r.target), r.steps, r.optimal_steps) for r in fast.results] == expected
+
+
+def test_the_evaluation_of_a_large_floor_is_bounded_by_its_size():
+    env = gym.make("warehouse-robot-v0", grid_rows=60, grid_cols=60)
+    stuck = np.zeros((60, 60, 60, 60, 4))  # greedy: LEFT into the wall for ever
+    pacing = stuck.copy()  # RIGHT from even columns, LEFT from odd ones: (0, 0) <-> (0, 1)
+    pacing[:, 0::2, ..., 2] = 1
+    pacing[:, 1::2, ..., 0] = 1
+    for q in (stuck, pacing):
+        started = time.process_time()
+        evaluation = evaluate(env, q)
+        assert time.process_time() - started < 10  # was minutes: 43,200 steps per target
+        assert evaluation.reached == 0
+        assert len(evaluation.results) == 59 * 59

@@ -603,7 +603,8 @@ def test_a_physics_fleet_run_writes_its_files(tmp_path, capsys):
         (["--robots", "7", "--layout", "depot"], "7 robots need 7 package cells"),
         (["--observation", "neighbours"], "it needs --robots 2 or more"),
         (["--robots", "2", "--observation", "global"], "invalid choice: 'global'"),
-        (["--eval", "x.npz", "--observation", "local"], "the observation comes from the table"),
+        (["--eval", "x.npz", "--observation", "local"], "leave out --out, --observation"),
+        (["--eval", "x", "--episodes", "5", "--robots", "2"], "out --episodes, --out, --robots"),
     ],
 )
 def test_a_fleet_that_cannot_be_trained_exits_2_and_writes_nothing(tmp_path, capsys, args, message):

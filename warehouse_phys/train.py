@@ -190,10 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         if args.eval is not None:
-            if args.observation is not None:
-                raise UsageError(
-                    "--eval: the observation comes from the table; leave out --observation"
-                )
+            _refuse_training_options(args)
             return _evaluate_saved(args)
         return _train(args, run)
     except (UsageError, RunFolderError) as error:
@@ -383,6 +380,28 @@ def _progress_bar(episodes: int, env_id: str, *, disable: bool) -> Any:
 
 
 # --------------------------------------------------------------- evaluation
+def _refuse_training_options(args: argparse.Namespace) -> None:
+    """``--eval`` trains nothing and writes nothing: options that only training reads are
+    refused, never silently ignored."""
+    defaults = QLearningConfig()
+    given = {
+        "--episodes": args.episodes is not None,
+        "--out": args.out is not None,
+        "--overwrite": args.overwrite,
+        "--robots": args.robots != 1,
+        "--observation": args.observation is not None,
+        "--alpha": args.alpha != defaults.alpha,
+        "--gamma": args.gamma != defaults.gamma,
+        "--no-gif": not args.gif,
+    }
+    ignored = [flag for flag, present in given.items() if present]
+    if ignored:
+        raise UsageError(
+            f"--eval evaluates a saved table (its robots and observation come from the file) "
+            f"and writes nothing: leave out {', '.join(ignored)}"
+        )
+
+
 def _evaluate_saved(args: argparse.Namespace) -> int:
     try:
         q, metadata = load_q_table(args.eval)
