@@ -4,14 +4,14 @@ import hashlib
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from warehouse_phys import fleet
 from warehouse_phys.fleet_evaluation import evaluate_fleet, evaluate_throughput
-from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.grid import Action, WarehouseGrid
 from warehouse_phys.planning import PIBT, pibt_policy
-from warehouse_phys.traffic import WAIT, resolve_moves
+from warehouse_phys.traffic import WAIT, moves_refused_by_floor, resolve_moves
 
 #: A robot too large for corner follows (diameter 0.68 of a cell).
 BIG_ROBOT = {"robot_radius": 0.34}
@@ -80,6 +80,71 @@ def test_a_pushed_robot_goes_straight_on_without_corner_follows():
         assert actions[1] == (3 if corner_follows else 2)  # up round the corner, or straight
 
 
+@given(
+    rows=st.integers(2, 8),
+    cols=st.integers(2, 8),
+    shelf_bits=st.integers(0, 2**64 - 1),
+    data=st.data(),
+    corner_follows=st.booleans(),
+)
+def test_every_plan_is_granted_whatever_the_robots_and_goals(
+    rows, cols, shelf_bits, data, corner_follows
+):
+    """Any robots, goals (a parked robot's cell among them), parked and absent robots:
+    traffic grants every move of every plan in full, no move bumps into a wall, and a
+    robot that is parked or gone waits."""
+    layout = [["#" if (shelf_bits >> (r * 8 + c)) & 1 and (r + c) % 2 else "."
+               for c in range(cols)] for r in range(rows)]  # fmt: skip
+    try:
+        grid = WarehouseGrid.from_layout(["".join(row) for row in layout])
+    except ValueError:  # a floor without a cell for a package
+        assume(False)
+    free = [(r, c) for r in range(rows) for c in range(cols) if layout[r][c] == "."]
+    chosen = data.draw(st.lists(st.sampled_from(free), min_size=1, unique=True))
+    n = len(chosen)
+    cells = np.array(chosen)
+    goals = np.array(data.draw(st.lists(st.sampled_from(free), min_size=n, max_size=n)))
+    present = np.array(data.draw(st.lists(st.booleans(), min_size=n, max_size=n)))
+    parked = np.array(data.draw(st.lists(st.booleans(), min_size=n, max_size=n))) & present
+    planner = PIBT(grid, corner_follows=corner_follows, seed=data.draw(st.integers(0, 99)))
+    for _ in range(4):
+        actions = planner.plan(cells, goals, present & ~parked, present)
+        assert (actions[~present | parked] == WAIT).all()
+        here, act = cells[present], actions[present]
+        assert not moves_refused_by_floor(grid, here, act, parked[present]).any()
+        ends, refused = resolve_moves(grid, here, act, parked[present],
+                                      corner_follows=corner_follows)  # fmt: skip
+        assert not refused.any()
+        cells = cells.copy()
+        cells[present] = ends
+
+
+def test_without_corner_follows_a_robot_in_the_way_leaves_and_the_cell_waits_for_the_other():
+    """robot_1 stands against the wall on robot_0's goal; pushing it on is impossible,
+    so it inherits robot_0's priority and steps aside (down), and robot_0 enters next."""
+    grid = WarehouseGrid.from_layout(["S....", ".....", ".....", "....."])
+    cells = np.array([(1, 3), (1, 4)])
+    goals = np.array([(1, 4), (3, 2)])
+    planner = PIBT(grid, corner_follows=False, seed=0)
+    planner.plan(cells, goals)  # priorities now grow: robot_0 first (tie-breaker aside)
+    planner._priority = np.array([5.0, 0.5])
+    seen = []
+    for _ in range(2):
+        actions = planner.plan(cells, goals)
+        cells, refused = resolve_moves(grid, cells, actions, corner_follows=False)
+        assert not refused.any()
+        seen.append(actions.tolist())
+    assert seen == [[WAIT, Action.DOWN], [Action.RIGHT, Action.DOWN]]
+
+
+def test_without_corner_follows_two_robots_deliver_every_package():
+    env = fleet.parallel_env(num_robots=2, **BIG_ROBOT)
+    assert not env.corner_follows
+    result = evaluate_fleet(env, pibt_policy(0), seeds=range(20))
+    assert result.refused == 0
+    assert result.delivered == 40
+
+
 @pytest.mark.parametrize("layout", [None, "aisles"])
 @pytest.mark.parametrize("robots", [2, 3, 4])
 def test_every_package_is_delivered_or_walled_off_by_a_parked_robot(layout, robots):
@@ -91,12 +156,13 @@ def test_every_package_is_delivered_or_walled_off_by_a_parked_robot(layout, robo
 
 @pytest.mark.parametrize(("robots", "target"), [(128, 3.3), (192, 4.2)])
 def test_throughput_on_the_kiva_warehouse_beats_the_published_figures(robots, target):
-    """Lifelong, 256 steps, seeds 0-4, on the 33 x 46 floor of kiva-33-46.map (the
-    ``warehouse`` preset): published figures are Follower 3.94, QMIX 2.0, RHCR 1.57 and
-    IQL 0.36 deliveries per step with 192 robots."""
+    """Lifelong, 256 steps, on the 33 x 46 floor of kiva-33-46.map (the ``warehouse``
+    preset, the same floor): published figures are Follower 3.94, QMIX 2.0, RHCR 1.57
+    and IQL 0.36 deliveries per step with 192 robots. One seed here; seeds 0-4 are
+    ``benchmarks/fleet_scale.py``'s table (3.43 and 4.29)."""
     env = fleet.parallel_env(num_robots=robots, layout="warehouse", lifelong=True,
                              max_cycles=256)  # fmt: skip
-    result = evaluate_throughput(env, pibt_policy(0), steps=256, seeds=range(5))
+    result = evaluate_throughput(env, pibt_policy(0), steps=256, seeds=range(1))
     assert result.refused == 0
     assert result.throughput >= target
 

@@ -32,6 +32,7 @@ from warehouse_phys.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 
 if TYPE_CHECKING:
     from warehouse_phys.fleet import WarehouseFleetEnv
+    from warehouse_phys.fleet_evaluation import FleetPolicy
 
 #: "No robot" / "not planned yet" in the planner's arrays.
 NIL = -1
@@ -46,9 +47,7 @@ class PIBT:
     - Robots plan in decreasing priority. A robot's priority grows by one each step it
       plans towards the same goal and falls back to its fractional tie-breaker (drawn
       once from ``seed``) when its goal changes, so a robot that waits long enough
-      comes first: in PIBT's sense, every robot whose goal stays reachable reaches it
-      (the reachability property on floors where any two cells are joined by a cycle,
-      the lifelong setting of the paper); nothing waits forever in a standoff.
+      comes first (how PIBT reaches every goal: see below).
     - Candidates are the cells a move leads to and staying put, tried nearest to the
       goal first (exact distances from :class:`~warehouse_phys.distances.DistanceMaps`)
       with ties broken at random by a generator seeded with ``seed``.
@@ -56,13 +55,24 @@ class PIBT:
       and is never pushed; robots not ``present`` (gone from the floor) are ignored and
       wait.
     - **Every plan is granted by the traffic rule**: no two robots head for one cell,
-      no two swap, a robot enters an occupied cell only as its occupant leaves; with
-      ``corner_follows=False`` only straight behind it, so a pushed robot must go
-      straight on (and no rotation, which always turns a corner, is planned).
+      no two swap, a robot enters an occupied cell only as its occupant leaves. With
+      ``corner_follows=False`` only straight behind it: a push moves the whole line of
+      robots ahead one cell on in the same direction or is not made, no rotation
+      (which always turns a corner) is planned, and a robot that cannot be pushed
+      straight on steps aside instead, leaving its cell empty for the robot behind to
+      enter on the next step (priority inheritance over two steps).
 
-    What it does not promise: shortest paths or a bound on the sum of costs (it is a
-    greedy, one-step planner), or delivery in one-shot runs where a parked robot walls
-    a package off (no planner can).
+    What it promises beyond that is PIBT's reachability property: with corner follows,
+    on a floor that joins every two neighbouring cells by a cycle (no dead ends), the
+    robot of highest priority always moves to a cell nearer its goal, so every robot,
+    once its turn at the top comes, reaches its goal: lifelong fleets on such floors
+    never deadlock. What it does not promise: shortest paths or a bound on the sum of
+    costs (it is a greedy, one-step planner); progress in dead ends, where two robots
+    must pass each other in a corridor closed at one end (a parked robot can make
+    one), nor delivery in one-shot runs where a parked robot walls a package off (no
+    planner can); and, without corner follows, PIBT's guarantee (the two-step
+    inheritance is a heuristic: it resolves a robot blocking another against a wall,
+    not every standoff).
 
     Args:
         grid: The floor.
@@ -131,7 +141,14 @@ class PIBT:
         moving = np.flatnonzero(movable)
         candidates = self._table[here[moving]]  # (m, 5): the four moves, then staying
         targets = np.repeat(goal[moving], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
-        distance = distances.lookup(candidates, targets).astype(np.float64)
+        if distances is self.distances:
+            distance = distances.lookup(candidates, targets).astype(np.float64)
+        else:  # round the held cells, but not towards one: that goal is on the plain floor
+            distance = np.empty(candidates.shape, dtype=np.float64)
+            onto_held = np.isin(goal[moving], self._held)
+            for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
+                if rows.any():
+                    distance[rows] = maps.lookup(candidates[rows], targets[rows])
         blocked = candidates[:, :WAIT] == here[moving, None]  # a move into a wall or shelf
         distance[:, :WAIT][blocked] = np.inf  # UNREACHABLE cells stay last but one
         order = np.argsort(distance + 0.5 * self.rng.random(distance.shape), axis=1)
@@ -157,9 +174,10 @@ class PIBT:
             if action != WAIT and ranked_of[i][0] == here_list[i]:
                 ranked_of[i] = [here_list[i]]  # into a wall or shelf: it stays
         by_priority = moving[np.argsort(-self._priority[moving], kind="stable")].tolist()
+        step_one = self._pibt if self.corner_follows else self._pibt_straight
         for i in [*requested, *by_priority]:
             if plan[i] == NIL:
-                self._pibt(i, here_list, ranked_of, plan, occupied_now, occupied_next)
+                step_one(i, here_list, ranked_of, plan, occupied_now, occupied_next)
 
         actions = np.full(n, WAIT, dtype=np.int64)
         for i in moving.tolist():
@@ -217,10 +235,8 @@ class PIBT:
         occupied_next: list[int],
     ) -> None:
         """PIBT's recursive ``funcPIBT`` from robot ``root``, with an explicit stack (a
-        chain of pushed robots can be longer than Python's recursion allows)."""
-        straight_only = not self.corner_follows
-        table = self._table
-        action_of = self._action_of
+        chain of pushed robots can be longer than Python's recursion allows): the
+        planner of a fleet whose robots may follow each other round corners."""
         # Each frame: [robot, its candidates, the position of the next one to try].
         stack = [[root, ranked_of[root], 0]]
         child_planned = None  # the outcome of the frame just popped
@@ -239,21 +255,13 @@ class PIBT:
                 if cell == NIL or occupied_next[cell] != NIL:
                     continue
                 j = occupied_now[cell]
-                if j != NIL and j != i:
-                    if plan[j] == here[i]:
-                        continue  # a swap
-                    if straight_only and plan[j] != NIL and plan[j] - cell != cell - here[i]:
-                        continue  # its occupant leaves round a corner
+                if j != NIL and j != i and plan[j] == here[i]:
+                    continue  # a swap
                 plan[i] = cell
                 occupied_next[cell] = i
-                if j != NIL and j != i and plan[j] == NIL:
+                if j != NIL and j != i and plan[j] == NIL:  # j inherits: it must move
                     frame[2] = position
-                    if straight_only:  # the occupant must carry straight on
-                        ahead = table[cell, action_of[cell - here[i]]]
-                        onward = [int(ahead)] if ahead != cell else []
-                    else:
-                        onward = ranked_of[j]
-                    stack.append([j, onward, 0])
+                    stack.append([j, ranked_of[j], 0])
                     break
                 stack.pop()
                 child_planned = True
@@ -264,8 +272,82 @@ class PIBT:
                 stack.pop()
                 child_planned = False
 
+    def _pibt_straight(
+        self,
+        i: int,
+        here: list[int],
+        ranked_of: list[Any],
+        plan: list[int],
+        occupied_now: list[int],
+        occupied_next: list[int],
+        *,
+        may_ask: bool = True,
+    ) -> None:
+        """PIBT for a fleet without corner follows, from robot ``i``.
 
-def pibt_policy(seed: int = 0) -> Any:
+        A robot may enter an occupied cell only as its occupant leaves straight ahead,
+        so a push is a line: the robots ahead of ``i`` in the direction of its move all
+        step forward together, or the move is not taken. A robot that a push could not
+        move is left unplanned (free to go its own way later in the step), not pinned
+        to its cell as in PIBT's backtracking. When ``i`` ends up staying put because
+        such a robot stood on a cell nearer its goal, that robot inherits ``i``'s
+        priority at once and must leave its cell (any way but back into ``i``), which
+        stays empty for ``i`` to enter on the next step: priority inheritance over two
+        steps, where corner follows do it in one. ``may_ask`` is false for that robot
+        itself, so inheritance goes one level deep.
+        """
+        table, action_of = self._table, self._action_of
+        blocker = NIL  # the first unplanned robot on a better cell that would not go straight
+        for cell in ranked_of[i]:
+            if cell == NIL or occupied_next[cell] != NIL:
+                continue
+            if cell == here[i]:
+                break  # staying is the best that is left
+            step = cell - here[i]
+            action = action_of[step]
+            line, ahead = [], cell  # the unplanned robots to push, and the cell reached
+            while True:
+                if occupied_next[ahead] != NIL:
+                    goes = False  # someone stays or arrives there
+                    break
+                j = occupied_now[ahead]
+                if j == NIL:
+                    goes = True
+                    break
+                if plan[j] != NIL:  # planned already: it must leave straight ahead
+                    goes = plan[j] - ahead == step
+                    break
+                line.append(j)
+                onward = int(table[ahead, action])
+                if onward == ahead:
+                    goes = False  # pushed into a wall or a shelf
+                    break
+                ahead = onward
+            if not goes:
+                if blocker == NIL and line:
+                    blocker = line[0]
+                continue
+            plan[i] = cell
+            occupied_next[cell] = i
+            for j in line:
+                onward = here[j] + step
+                plan[j] = onward
+                occupied_next[onward] = j
+            return
+        else:
+            if occupied_next[here[i]] != NIL:  # asked to leave and could not: stay after all
+                plan[i] = here[i]
+                occupied_next[here[i]] = i
+                return
+        plan[i] = here[i]
+        occupied_next[here[i]] = i
+        if may_ask and blocker != NIL and plan[blocker] == NIL:
+            occupied_next[here[blocker]] = i  # kept empty for i, so the blocker must leave
+            self._pibt_straight(blocker, here, ranked_of, plan, occupied_now, occupied_next,
+                                may_ask=False)  # fmt: skip
+
+
+def pibt_policy(seed: int = 0) -> FleetPolicy:
     """A fleet policy (``FleetPolicy``) that plans with :class:`PIBT`: stateful across
     the steps of an episode, started afresh when the environment resets (``env.steps``
     back at 0) or another environment calls it. It reads the fleet's public state only:
