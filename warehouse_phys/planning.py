@@ -36,6 +36,8 @@ if TYPE_CHECKING:
 
 #: "No robot" / "not planned yet" in the planner's arrays.
 NIL = -1
+#: Without corner follows, how many robots of a line in the way are asked to leave it.
+_MAX_ASKED = 8
 
 
 class PIBT:
@@ -280,24 +282,46 @@ class PIBT:
         plan: list[int],
         occupied_now: list[int],
         occupied_next: list[int],
-        *,
-        may_ask: bool = True,
     ) -> None:
         """PIBT for a fleet without corner follows, from robot ``i``.
 
         A robot may enter an occupied cell only as its occupant leaves straight ahead,
         so a push is a line: the robots ahead of ``i`` in the direction of its move all
-        step forward together, or the move is not taken. A robot that a push could not
-        move is left unplanned (free to go its own way later in the step), not pinned
-        to its cell as in PIBT's backtracking. When ``i`` ends up staying put because
-        such a robot stood on a cell nearer its goal, that robot inherits ``i``'s
-        priority at once and must leave its cell (any way but back into ``i``), which
-        stays empty for ``i`` to enter on the next step: priority inheritance over two
-        steps, where corner follows do it in one. ``may_ask`` is false for that robot
-        itself, so inheritance goes one level deep.
+        step forward together, or the move is not taken. Robots that a push could not
+        move are left unplanned (free to go their own way later in the step), not
+        pinned to their cells as in PIBT's backtracking. When ``i`` ends up staying put
+        because such a line stood on a cell nearer its goal, the line's robots, nearest
+        first, inherit ``i``'s priority and the first of them that can leave its cell
+        (any way but back) does, and its cell stays empty: on the next step the line
+        closes up and ``i`` moves on. Priority inheritance over two steps, where corner
+        follows do it in one.
         """
+        line = self._move_straight(i, here, ranked_of, plan, occupied_now, occupied_next)
+        if line is None:
+            return
+        plan[i] = here[i]
+        occupied_next[here[i]] = i
+        for j in line[:_MAX_ASKED]:
+            occupied_next[here[j]] = i  # kept empty: j may not stay
+            if self._move_straight(j, here, ranked_of, plan, occupied_now, occupied_next) is None:
+                return
+            occupied_next[here[j]] = NIL
+
+    def _move_straight(
+        self,
+        i: int,
+        here: list[int],
+        ranked_of: list[Any],
+        plan: list[int],
+        occupied_now: list[int],
+        occupied_next: list[int],
+    ) -> list[int] | None:
+        """Plan ``i``'s best candidate that traffic grants without corner follows, pushing
+        the line ahead of it straight on, and return None; or, when staying is the best
+        left (nothing is planned then), the robots in the way of the first better cell
+        that could not be reached, nearest first (perhaps none)."""
         table, action_of = self._table, self._action_of
-        blocker = NIL  # the first unplanned robot on a better cell that would not go straight
+        blocked_by: list[int] = []
         for cell in ranked_of[i]:
             if cell == NIL or occupied_next[cell] != NIL:
                 continue
@@ -324,8 +348,8 @@ class PIBT:
                     break
                 ahead = onward
             if not goes:
-                if blocker == NIL and line:
-                    blocker = line[0]
+                if not blocked_by:
+                    blocked_by = line
                 continue
             plan[i] = cell
             occupied_next[cell] = i
@@ -333,18 +357,8 @@ class PIBT:
                 onward = here[j] + step
                 plan[j] = onward
                 occupied_next[onward] = j
-            return
-        else:
-            if occupied_next[here[i]] != NIL:  # asked to leave and could not: stay after all
-                plan[i] = here[i]
-                occupied_next[here[i]] = i
-                return
-        plan[i] = here[i]
-        occupied_next[here[i]] = i
-        if may_ask and blocker != NIL and plan[blocker] == NIL:
-            occupied_next[here[blocker]] = i  # kept empty for i, so the blocker must leave
-            self._pibt_straight(blocker, here, ranked_of, plan, occupied_now, occupied_next,
-                                may_ask=False)  # fmt: skip
+            return None
+        return blocked_by
 
 
 def pibt_policy(seed: int = 0) -> FleetPolicy:
