@@ -387,13 +387,34 @@ def test_ten_thousand_robots_step_on_one_floor():
         ({"starts": "anywhere"}, "starts must be one of"),
         ({"lifelong": True, "on_delivery": "park"}, "lifelong=True means"),
         ({"num_robots": 300, "observation": "global", "grid_rows": 40}, "at most 256 robots"),
-        ({"num_robots": 300, "physics": True, "grid_rows": 40}, "physics world takes at most"),
+        ({"num_robots": 1025, "physics": True, "grid_rows": 40}, "physics world takes at most"),
         ({"physics": True, "on_delivery": "leave"}, "'leave' is for the grid twin"),
     ],
 )
 def test_bad_modes_are_refused_by_name(kwargs, message):
     with pytest.raises(ValueError, match=message):
         fleet.parallel_env(**kwargs)
+
+
+def test_the_closest_approach_is_that_of_every_pair_compared():
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 7, 40):
+        starts = rng.uniform(0, 12, size=(n, 1, 2))
+        paths = starts + np.cumsum(rng.normal(0, 0.2, size=(n, 15, 2)), axis=1)
+        every_pair = np.linalg.norm(paths[:, None] - paths[None, :], axis=-1).min(axis=-1)
+        np.fill_diagonal(every_pair, np.inf)
+        assert np.array_equal(fleet.closest_approach(paths), every_pair.min(axis=1))
+
+
+def test_a_physics_fleet_of_the_most_robots_steps_without_touching():
+    n = fleet.MAX_PHYSICS_ROBOTS
+    env = fleet.parallel_env(num_robots=n, physics=True, grid_rows=48, grid_cols=48,
+                             starts="random")  # fmt: skip
+    env.reset(seed=0)
+    actions = np.random.default_rng(0).integers(5, size=n).tolist()
+    _, _, _, _, infos = env.step(dict(zip(env.agents, actions, strict=True)))
+    assert min(info["min_gap"] for info in infos.values()) > -COLLISION_SLOP
+    assert max(info["snap_error"] for info in infos.values()) < SNAP_ERROR_BOUND
 
 
 def test_the_aec_form_refuses_a_bad_action_before_anything_changes():
