@@ -296,10 +296,8 @@ def test_each_robots_package_is_uniform_over_the_cells_left_to_it():
 
 
 # ------------------------------------------------- delivery modes, starts, scale
-@pytest.mark.parametrize(
-    ("on_delivery", "observation"),
-    [("leave", "local"), ("new_package", "neighbours"), ("park", "neighbours")],
-)
+@pytest.mark.parametrize("observation", ["local", "neighbours", "global"])
+@pytest.mark.parametrize("on_delivery", ["leave", "new_package", "park"])
 def test_pettingzoos_suites_pass_for_every_delivery_mode_and_observation(on_delivery, observation):
     kwargs = {"num_robots": 3, "observation": observation, "on_delivery": on_delivery,
               "max_cycles": 40}  # fmt: skip
