@@ -197,6 +197,43 @@ def test_packages_are_never_on_a_robot_or_another_robots_package():
         assert packages <= set(grid.target_cells)
 
 
+def drawn_in_turn(env, robots, rng):
+    """New packages for ``robots`` drawn one robot at a time (the rule's plain statement)."""
+    cols, packages = env.grid.cols, env.package_cells.copy()
+    taken = np.zeros(env.grid.rows * cols, dtype=bool)
+    taken[env.robot_cells @ [cols, 1]] = True
+    keep = np.ones(env.num_robots, dtype=bool)
+    keep[robots] = False
+    taken[packages[keep] @ [cols, 1]] = True
+    targets = np.array([r * cols + c for r, c in env.grid.target_cells])
+    for robot in robots:
+        for _ in range(8):
+            cell = targets[rng.integers(len(targets))]
+            if not taken[cell]:
+                break
+        else:
+            free = targets[~taken[targets]]
+            cell = free[rng.integers(len(free))]
+        taken[cell] = True
+        packages[robot] = divmod(int(cell), cols)
+    return packages
+
+
+@pytest.mark.parametrize(("n", "side"), [(6, 4), (40, 12)])
+def test_new_packages_drawn_at_once_are_those_drawn_in_turn(n, side):
+    env = fleet.parallel_env(num_robots=n, grid_rows=side, grid_cols=side + 1, lifelong=True)
+    env.reset(seed=n)
+    choose = np.random.default_rng(0)
+    for _ in range(40):
+        robots = np.sort(choose.choice(n, size=int(choose.integers(1, n + 1)), replace=False))
+        in_turn = copy.deepcopy(env.np_random)
+        expected = drawn_in_turn(env, robots.tolist(), in_turn)
+        env._draw_new_packages(robots)
+        assert np.array_equal(env.package_cells, expected)
+        assert env.np_random.bit_generator.state == in_turn.bit_generator.state
+        env.step(dict(zip(env.agents, choose.integers(5, size=n).tolist(), strict=True)))
+
+
 @pytest.mark.parametrize("world", list(WORLDS))
 def test_copies_and_pickles_continue_alike(world):
     env = fleet.parallel_env(num_robots=3, **WORLDS[world])

@@ -389,8 +389,12 @@ class WarehouseFleetEnv(ParallelEnv):
         self._cells = ends
         self._steps += 1
 
-        arrived = np.zeros(self.num_robots, dtype=bool)
-        arrived[live] = (ends[live] == self._packages[live]).all(axis=1)
+        package = self._packages[:, 0] * cols + self._packages[:, 1]
+        if self.physics:  # the cells read from the bodies (the same, as the tests prove)
+            moved = ends[:, 0] * cols + ends[:, 1]
+        arrived = moved == package
+        if len(live) < self.num_robots:  # the parked and the gone deliver no more
+            arrived &= np.isin(np.arange(self.num_robots), live)
         delivered = np.flatnonzero(arrived)
         self._deliveries[delivered] += 1
         if self.on_delivery == "new_package":
@@ -404,9 +408,12 @@ class WarehouseFleetEnv(ParallelEnv):
         ends_robot = arrived_live if not self.lifelong else [False] * len(agents)
         terminations = dict(zip(agents, ends_robot, strict=True))
         truncated = self._steps >= self.max_cycles
-        truncations = {
-            agent: truncated and not ended for agent, ended in zip(agents, ends_robot, strict=True)
-        }
+        if truncated:
+            truncations = {
+                agent: not ended for agent, ended in zip(agents, ends_robot, strict=True)
+            }
+        else:
+            truncations = dict.fromkeys(agents, False)
         observations = self._observations(live)
         infos = self._infos(live, refused, snap_errors, gaps)
         if truncated:
@@ -505,7 +512,12 @@ class WarehouseFleetEnv(ParallelEnv):
 
     def _draw_new_packages(self, robots: np.ndarray) -> None:
         """New packages for ``robots``, each uniform over the package cells on no robot and
-        no other robot's package (rejection sampling, then an exact draw if it keeps missing)."""
+        no other robot's package (rejection sampling, then an exact draw if it keeps missing).
+
+        The robots draw in order, each one cell at a time. All first draws are made at
+        once; when they all land on free, distinct cells (the usual case) that is what
+        drawing in turn gives, else the generator is put back and the robots draw in turn.
+        """
         if not robots.size:
             return
         cols = self.grid.cols
@@ -515,6 +527,12 @@ class WarehouseFleetEnv(ParallelEnv):
         keep[robots] = False
         taken[self._packages[keep, 0] * cols + self._packages[keep, 1]] = True
         rng = self.np_random
+        before = rng.bit_generator.state
+        cells = self._targets[rng.integers(len(self._targets), size=robots.size)]
+        if not taken[cells].any() and (robots.size == 1 or np.unique(cells).size == robots.size):
+            self._packages[robots, 0], self._packages[robots, 1] = np.divmod(cells, cols)
+            return
+        rng.bit_generator.state = before
         for robot in robots.tolist():
             for _ in range(8):
                 cell = self._targets[rng.integers(len(self._targets))]
@@ -592,7 +610,10 @@ class WarehouseFleetEnv(ParallelEnv):
         if self.observation == "global":
             state = self.state()
             return {agent: state.copy() for agent in self.agents}
-        columns = [self._cells[live], self._packages[live]]
+        if len(live) == self.num_robots:
+            columns = [self._cells, self._packages]
+        else:
+            columns = [self._cells[live], self._packages[live]]
         if self.observation == "neighbours":
             columns.append(self._neighbour_masks(live)[:, None])
         rows = np.concatenate(columns, axis=1)
@@ -620,11 +641,17 @@ class WarehouseFleetEnv(ParallelEnv):
         gaps: np.ndarray | None,
     ) -> dict[str, dict[str, Any]]:
         cols = self.grid.cols
-        cells, packages = self._cells[live], self._packages[live]
+        all_live = len(live) == self.num_robots  # no copies in the usual case
+        cells = self._cells if all_live else self._cells[live]
+        packages = self._packages if all_live else self._packages[live]
         optimal = self.distances.lookup(
             cells[:, 0] * cols + cells[:, 1], packages[:, 0] * cols + packages[:, 1]
         )
-        columns = [optimal.tolist(), refused[live].tolist(), self._deliveries[live].tolist()]
+        if not all_live:
+            refused, deliveries = refused[live], self._deliveries[live]
+        else:
+            deliveries = self._deliveries
+        columns = [optimal.tolist(), refused.tolist(), deliveries.tolist()]
         if not self.physics:
             return {
                 agent: {"optimal_steps": o, "refused": r, "deliveries": d}
