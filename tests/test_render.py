@@ -294,3 +294,57 @@ def test_unreadable_sprite_gives_a_clear_error(tmp_path, monkeypatch):
     monkeypatch.setattr(render_module, "SPRITE_DIRS", (tmp_path,))
     with pytest.raises(ValueError, match="could not be read"):
         WarehouseRenderer(2, 2).rgb_array((0, 0), (1, 1))
+
+
+# ------------------------------------------------------------ fleet map frames
+def test_map_colours_stay_apart_from_each_other_and_from_the_floor():
+    colours = render_module.MAP_ROBOT_COLOURS.astype(float)
+    apart = np.linalg.norm(colours[:, None] - colours[None, :], axis=-1)
+    np.fill_diagonal(apart, np.inf)
+    assert len(colours) == 8
+    assert apart.min() > 60
+    marks = [render_module.MAP_FLOOR, render_module.MAP_SHELF, render_module.MAP_PACKAGE,
+             render_module.MAP_DELIVERED]  # fmt: skip
+    for mark in np.array(marks, dtype=float):
+        assert np.linalg.norm(colours - mark, axis=-1).min() > 60
+    background = np.array(marks[:3], dtype=float)  # floor, shelves, packages: apart too
+    apart = np.linalg.norm(background[:, None] - background[None, :], axis=-1)
+    np.fill_diagonal(apart, np.inf)
+    assert apart.min() > 60
+
+
+def test_a_500_by_140_floor_fits_1000_pixels_with_robots_as_squares_of_their_colour():
+    from types import SimpleNamespace
+
+    floor = SimpleNamespace(rows=140, cols=500, shelves=frozenset({(5, 5), (5, 6)}))
+    robots = np.array([(0, 0), (139, 499), (70, 250)])
+    packages = np.array([(1, 1), (0, 499), (5, 7)])
+    frame = render_module.fleet_map_frame(floor, robots, packages, parked=[False, False, True])
+    assert frame.shape == (280, 1000, 3)
+    assert frame.dtype == np.uint8
+    assert (frame[0:2, 0:2] == render_module.MAP_ROBOT_COLOURS[0]).all()
+    assert (frame[278:280, 998:1000] == render_module.MAP_ROBOT_COLOURS[1]).all()
+    assert (frame[140:142, 500:502] == render_module.MAP_DELIVERED).all()  # parked: green
+    assert (frame[2:4, 2:4] == render_module.MAP_PACKAGE).all()
+    assert (frame[10:12, 10:12] == render_module.MAP_SHELF).all()
+    assert (frame[10:12, 14:16] == render_module.MAP_FLOOR).all()  # robot 2's package: delivered
+
+
+def test_a_parked_robot_keeps_its_colour_in_a_green_frame_and_packages_show_under_robots():
+    from types import SimpleNamespace
+
+    floor = SimpleNamespace(rows=3, cols=4, shelves=frozenset())
+    robots = np.array([(0, 0), (2, 3)])
+    packages = np.array([(2, 3), (1, 1)])  # robot_1 stands on robot_0's package
+    frame = render_module.fleet_map_frame(floor, robots, packages, parked=[False, True],
+                                          cell_px=12)  # fmt: skip
+    parked = frame[24:36, 36:48]
+    assert (parked[0] == render_module.MAP_DELIVERED).all()  # the frame's four sides
+    assert (parked[-1] == render_module.MAP_DELIVERED).all()
+    assert (parked[:, 0] == render_module.MAP_DELIVERED).all()
+    assert (parked[:, -1] == render_module.MAP_DELIVERED).all()
+    assert (parked[3, 3] == render_module.MAP_ROBOT_COLOURS[1]).all()  # its colour inside
+    assert (parked[6, 6] == render_module.MAP_PACKAGE).all()  # robot_0's package under it
+    assert (frame[0:12, 0:12] == render_module.MAP_ROBOT_COLOURS[0]).all()  # not framed
+    with pytest.raises(ValueError, match="cell_px must be at least 1"):
+        render_module.fleet_map_frame(floor, robots, packages, cell_px=0)

@@ -477,8 +477,10 @@ class WarehouseRenderer:
 #: Robot colours for map frames: :data:`FLEET_COLOURS` as an array [RGB].
 MAP_ROBOT_COLOURS = np.array(FLEET_COLOURS, dtype=np.uint8)
 MAP_FLOOR = (245, 245, 240)  # RGB
-MAP_SHELF = (70, 70, 80)  # RGB
-MAP_PACKAGE = (40, 40, 40)  # RGB: a dark dot, left visible round a robot standing on it
+#: Shelves in a light grey, so that the near-black packages stand out from them even
+#: at 1 or 2 pixels a cell; every robot colour stays far from both.
+MAP_SHELF = (185, 185, 195)  # RGB
+MAP_PACKAGE = (25, 25, 25)  # RGB: a dark dot, left visible in a robot standing on it
 MAP_DELIVERED = DELIVERED_FRAME  # RGB: a parked robot that delivered
 #: Widest map frame drawn by :func:`fleet_map_frame` when it chooses the cell size [px].
 MAP_FRAME_WIDTH_PX = 1000
@@ -500,11 +502,18 @@ def fleet_map_frame(
     cell_px: int | None = None,
 ) -> np.ndarray:
     """A fleet on a large floor as an ``(H, W, 3)`` uint8 map, drawn with array operations
-    (no pygame): shelves dark, packages dark grey, robots as squares in colour
-    ``MAP_ROBOT_COLOURS[i % 8]``, parked robots green. Where a robot stands on a package
-    and the cell is 3 px or more, the package shows as a dark square in the robot's
-    middle. Robots that left the floor are not drawn. ``cell_px`` defaults to
-    :func:`map_cell_px`."""
+    (no pygame, no sprites: one pass however many robots): the floor light, shelves light
+    grey, packages near-black, robot ``i`` a square in ``MAP_ROBOT_COLOURS[i % 8]``.
+
+    A parked robot (it delivered) is framed in green, as the single robot's delivery is,
+    keeping its colour inside, when a cell is 4 px or more; on smaller cells it is a
+    green square. Where a robot stands on its or another's package and the cell is 3 px
+    or more, the package shows as a dark square in the robot's middle. Robots that left
+    the floor are not drawn. ``cell_px`` defaults to :func:`map_cell_px`.
+
+    Raises:
+        ValueError: if ``cell_px`` is below 1.
+    """
     rows, cols = grid.rows, grid.cols
     px = map_cell_px(rows, cols) if cell_px is None else int(cell_px)
     if px < 1:
@@ -515,6 +524,7 @@ def fleet_map_frame(
     shown = np.ones(n, dtype=bool) if on_floor is None else np.asarray(on_floor, dtype=bool)
     done = np.zeros(n, dtype=bool) if parked is None else np.asarray(parked, dtype=bool)
     waiting = shown & ~done  # robots whose package is still on the floor
+    framed = px >= 4  # a parked robot keeps its colour inside a green frame
     cells = np.empty((rows, cols, 3), dtype=np.uint8)
     cells[:] = MAP_FLOOR
     if grid.shelves:
@@ -522,9 +532,19 @@ def fleet_map_frame(
         cells[shelves[:, 0], shelves[:, 1]] = MAP_SHELF
     cells[packages[waiting, 0], packages[waiting, 1]] = MAP_PACKAGE
     colours = MAP_ROBOT_COLOURS[np.arange(n) % len(MAP_ROBOT_COLOURS)]
-    colours[done] = MAP_DELIVERED
+    if not framed:
+        colours[done] = MAP_DELIVERED
     cells[robots[shown, 0], robots[shown, 1]] = colours[shown]
     frame = np.repeat(np.repeat(cells, px, axis=0), px, axis=1)
+    if framed:  # a green frame round each parked robot's cell
+        at = robots[shown & done]
+        border = max(1, px // 6)
+        edge = np.r_[0:border, px - border : px]
+        inside = np.arange(px)
+        for d_row, d_col in ((edge, inside), (inside, edge)):
+            r = at[:, 0, None] * px + d_row  # (parked, len(d_row))
+            c = at[:, 1, None] * px + d_col  # (parked, len(d_col))
+            frame[r[:, :, None], c[:, None, :]] = MAP_DELIVERED
     if px >= 3:  # packages under robots: a square in the middle of the robot's cell
         occupied = np.zeros((rows, cols), dtype=bool)
         occupied[robots[shown, 0], robots[shown, 1]] = True
