@@ -52,8 +52,10 @@ def test_throughput_is_deliveries_per_step_of_a_lifelong_fleet():
     assert result.to_json()["throughput"] == result.throughput
     with pytest.raises(ValueError, match="needs a lifelong fleet"):
         evaluate_throughput(fleet.parallel_env(), shortest_path_policy, steps=10)
-    with pytest.raises(ValueError, match="evaluate_throughput"):
-        evaluate_fleet(env, shortest_path_policy)
+    # evaluate_fleet measures a lifelong fleet by its throughput, over max_cycles steps.
+    assert evaluate_fleet(env, shortest_path_policy, seeds=range(2)) == result
+    with pytest.raises(ValueError, match="steps is for lifelong fleets"):
+        evaluate_fleet(fleet.parallel_env(), shortest_path_policy, steps=10)
 
 
 def test_the_comparison_says_when_a_policy_does_worse_than_a_baseline():

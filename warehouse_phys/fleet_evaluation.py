@@ -8,8 +8,9 @@ The multi-robot planning field's measures, over fixed seeds:
   limit) against the sum of shortest paths, the **makespan** (the step of the
   last delivery, or the time limit), refused moves, waits, episodes stuck at the
   time limit and packages **walled off** by parked robots;
-- lifelong (``on_delivery="new_package"``): :func:`evaluate_throughput` gives the
-  **throughput**, deliveries per step.
+- lifelong (``on_delivery="new_package"``): :func:`evaluate_fleet` (or
+  :func:`evaluate_throughput`) gives the **throughput**, deliveries per step, the mean
+  over the seeds, with refused moves and waits.
 
 :func:`compare_policies` lays several evaluations side by side and says plainly
 where a policy does worse than the shortest-path baseline or than random.
@@ -151,33 +152,55 @@ class FleetEvaluation:
 
 
 def evaluate_fleet(
-    env: WarehouseFleetEnv, policy: FleetPolicy, *, seeds: range = range(20)
-) -> FleetEvaluation:
-    """Play ``policy`` on ``env`` (one-shot: ``on_delivery`` ``"park"`` or ``"leave"``)
-    once per seed, until every robot delivered or the time limit."""
+    env: WarehouseFleetEnv,
+    policy: FleetPolicy,
+    *,
+    seeds: range = range(20),
+    steps: int | None = None,
+) -> FleetEvaluation | ThroughputEvaluation:
+    """Play ``policy`` on ``env`` once per seed and measure it as the field does.
+
+    One-shot (``on_delivery`` ``"park"`` or ``"leave"``): each seed's episode runs until
+    every robot delivered or the time limit; a :class:`FleetEvaluation`. Lifelong
+    (``"new_package"``): each seed runs ``steps`` joint steps (default
+    ``env.max_cycles``); a :class:`ThroughputEvaluation`, as :func:`evaluate_throughput`.
+
+    The work of a step is array operations over the fleet (``env.robot_cells``,
+    ``env.deliveries``, ...) plus one pass over the policy's actions and the infos.
+
+    Raises:
+        ValueError: for ``steps`` on a one-shot fleet, which ends when its robots do.
+    """
     if env.lifelong:
+        return evaluate_throughput(
+            env, policy, steps=env.max_cycles if steps is None else steps, seeds=seeds
+        )
+    if steps is not None:
         raise ValueError(
-            "evaluate_fleet is one-shot (each robot delivers one package); for a lifelong "
-            "fleet use evaluate_throughput"
+            "steps is for lifelong fleets; a one-shot fleet runs until its robots delivered "
+            "or max_cycles"
         )
     totals = dict.fromkeys(("delivered", "robot_steps", "shortest_steps", "refused",
                             "deadlocks", "sum_of_costs", "all_shortest_steps",
                             "makespan_total", "waits", "walled_off"), 0)  # fmt: skip
+    cols = env.grid.cols
     for seed in seeds:
         observations, infos = env.reset(seed=seed)
-        optimal = np.array([infos[a]["optimal_steps"] for a in env.possible_agents])
+        cells, packages = env.robot_cells, env.package_cells
+        optimal = env.distances.lookup(
+            cells[:, 0] * cols + cells[:, 1], packages[:, 0] * cols + packages[:, 1]
+        ).astype(np.int64)
         delivered_at = np.zeros(env.num_robots, dtype=np.int64)
         step = 0
         while env.agents:
             actions = policy(env, observations, infos)
-            totals["waits"] += sum(1 for a in actions.values() if a == WAIT)
-            observations, _, terminations, _, infos = env.step(actions)
+            totals["waits"] += int(np.count_nonzero(np.fromiter(actions.values(), int) == WAIT))
+            observations, _, _, _, infos = env.step(actions)
             step += 1
-            for agent, info in infos.items():
-                totals["refused"] += info["refused"]
-                if terminations[agent]:
-                    delivered_at[int(agent.rsplit("_", 1)[1])] = step
-            observations = {agent: observations[agent] for agent in env.agents}
+            totals["refused"] += sum(info["refused"] for info in infos.values())
+            delivered_at[(env.deliveries > 0) & (delivered_at == 0)] = step
+            if len(observations) != len(env.agents):
+                observations = {agent: observations[agent] for agent in env.agents}
         done = delivered_at > 0
         totals["delivered"] += int(done.sum())
         totals["robot_steps"] += int(delivered_at[done].sum())
