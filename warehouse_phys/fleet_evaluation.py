@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -289,35 +289,64 @@ def evaluate_throughput(
     return ThroughputEvaluation(env.num_robots, steps, tuple(deliveries), refused, waits)
 
 
+class Measured(Protocol):
+    """What :func:`compare_policies` needs of a lifelong measure besides the two
+    evaluations (a :class:`~warehouse_phys.simulate.Simulation`, say)."""
+
+    @property
+    def throughput(self) -> float: ...
+
+    def summary(self) -> str: ...
+
+
+def _score(evaluation: FleetEvaluation | ThroughputEvaluation | Measured) -> float:
+    """Packages delivered one-shot, deliveries per step otherwise: higher is better."""
+    if isinstance(evaluation, FleetEvaluation):
+        return evaluation.delivered
+    return evaluation.throughput
+
+
+def worse_policies(
+    evaluations: dict[str, FleetEvaluation | ThroughputEvaluation | Measured],
+    *,
+    baseline: str = "shortest",
+    random: str = "random",
+) -> list[tuple[str, str]]:
+    """``(policy, reference)`` for each policy of ``evaluations`` that does worse than
+    ``baseline`` or ``random`` (those present): fewer packages delivered one-shot, a lower
+    throughput lifelong."""
+    return [
+        (name, reference)
+        for name, evaluation in evaluations.items()
+        for reference in (baseline, random)
+        if name != reference
+        and reference in evaluations
+        and _score(evaluation) < _score(evaluations[reference])
+    ]
+
+
 def compare_policies(
-    evaluations: dict[str, FleetEvaluation | ThroughputEvaluation],
+    evaluations: dict[str, FleetEvaluation | ThroughputEvaluation | Measured],
     *,
     baseline: str = "shortest",
     random: str = "random",
 ) -> str:
     """A side-by-side table of ``evaluations`` (by policy name), then one line for each
     policy that does worse than ``baseline`` or ``random`` (when those are present):
-    fewer packages delivered one-shot, a lower throughput lifelong."""
+    fewer packages delivered one-shot, a lower throughput lifelong. The evaluations
+    are all one-shot or all lifelong."""
     if not evaluations:
         return ""
     width = max(len(name) for name in evaluations)
     lines = [f"{name:<{width}}  {ev.summary()}" for name, ev in evaluations.items()]
-
-    def score(ev: FleetEvaluation | ThroughputEvaluation) -> float:
-        return ev.throughput if isinstance(ev, ThroughputEvaluation) else ev.delivered
-
-    for name, ev in evaluations.items():
-        for reference in (baseline, random):
-            if name == reference or reference not in evaluations:
-                continue
-            if score(ev) < score(evaluations[reference]):
-                what = (
-                    f"a lower throughput ({ev.throughput:.2f} < "
-                    f"{evaluations[reference].throughput:.2f} deliveries/step)"
-                    if isinstance(ev, ThroughputEvaluation)
-                    else f"fewer packages ({ev.delivered} < {evaluations[reference].delivered})"
-                )
-                lines.append(f"WORSE: {name} delivers {what} than {reference}")
+    for name, reference in worse_policies(evaluations, baseline=baseline, random=random):
+        ev, ref = evaluations[name], evaluations[reference]
+        if isinstance(ev, FleetEvaluation) and isinstance(ref, FleetEvaluation):
+            what = f"fewer packages ({ev.delivered} < {ref.delivered})"
+        else:
+            rates = f"{ev.throughput:.2f} < {ref.throughput:.2f}"
+            what = f"a lower throughput ({rates} deliveries/step)"
+        lines.append(f"WORSE: {name} delivers {what} than {reference}")
     return "\n".join(lines)
 
 

@@ -35,8 +35,10 @@ from warehouse_phys.cli import MAX_CLI_ROBOTS, ArgumentParser, UsageError, bound
 from warehouse_phys.fleet import DELIVERY_MODES, WarehouseFleetEnv, parallel_env
 from warehouse_phys.fleet_evaluation import (
     FleetPolicy,
+    compare_policies,
     random_fleet_policy,
     shortest_path_policy,
+    worse_policies,
 )
 
 PROG = "python -m warehouse_phys.simulate"
@@ -45,6 +47,11 @@ RUN_FILES = ("summary.json", "throughput.png", "congestion.png", "fleet.gif")
 DEFAULT_RUNS_DIR = Path("runs")
 #: Frames of the GIF by default: enough to see the traffic, few enough to stay small.
 DEFAULT_FRAMES = 64
+#: The baselines a run is compared with, when that is cheap.
+BASELINES = ("shortest", "random")
+#: Robot-steps (robots x steps) up to which the command also runs the baselines: a few
+#: seconds on the grid; the physics world is never compared.
+COMPARE_BUDGET = 200_000
 
 
 @dataclass(frozen=True)
@@ -76,12 +83,18 @@ class Simulation:
         """Deliveries per step."""
         return float(self.deliveries.mean()) if self.steps else 0.0
 
+    def measures(self) -> str:
+        """The measures in one line: throughput, deliveries, waits and refused moves."""
+        return (
+            f"throughput {self.throughput:.2f} deliveries/step, "
+            f"{int(self.deliveries.sum()):,} deliveries, {int(self.waits.sum()):,} waits, "
+            f"{self.refused:,} refused moves"
+        )
+
     def summary(self) -> str:
         return (
             f"{self.policy}, {self.robots:,} robots on {self.layout}, {self.steps} steps "
-            f"({self.on_delivery}): throughput {self.throughput:.2f} deliveries/step, "
-            f"{int(self.deliveries.sum()):,} deliveries, {int(self.waits.sum()):,} waits, "
-            f"{self.refused:,} refused moves"
+            f"({self.on_delivery}): {self.measures()}"
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -147,9 +160,10 @@ def simulate(
     cell_px: int | None = None,
 ) -> tuple[Simulation, list[np.ndarray]]:
     """Play ``policy`` on ``env`` from ``env.reset(seed=seed)`` for ``steps`` joint steps
-    (fewer if every robot finished); returns the measures and up to ``frames`` map frames
-    (:func:`~warehouse_phys.render.fleet_map_frame`, ``cell_px`` pixels a cell, by default
-    what fits 1000 pixels), evenly spread over the run.
+    (fewer if every robot finished); returns the measures and ``min(frames, steps + 1)``
+    map frames (:func:`~warehouse_phys.render.fleet_map_frame`, ``cell_px`` pixels a cell,
+    by default what fits 1000 pixels), the first at the reset, the last after the last
+    step, evenly spread (fewer when the episode ends early).
     ``on_step()`` is called after each step (a progress bar)."""
     from warehouse_phys.render import fleet_map_frame
 
@@ -157,7 +171,8 @@ def simulate(
     grid, cols = env.grid, env.grid.cols
     waits = np.zeros(grid.rows * cols, dtype=np.int64)
     deliveries, refused, pictures = [], 0, []
-    every = max(1, -(-steps // frames)) if frames else 0
+    # The steps after which a frame is taken (0: at the reset), evenly spread.
+    shots = np.unique(np.linspace(0, steps, min(frames, steps + 1)).round().astype(int))
 
     def picture() -> None:
         pictures.append(fleet_map_frame(grid, env.robot_cells, env.package_cells, cell_px=cell_px,
@@ -165,6 +180,7 @@ def simulate(
 
     if frames:
         picture()
+    shot = 1  # the next of shots to take
     started = time.process_time()
     for step in range(steps):
         if not env.agents:
@@ -178,8 +194,9 @@ def simulate(
         refused += sum(info["refused"] for info in infos.values())
         stayed = working & (env.robot_cells == before).all(axis=1)
         np.add.at(waits, before[stayed, 0] * cols + before[stayed, 1], 1)
-        if every and (step + 1) % every == 0 and len(pictures) < frames:
+        if shot < len(shots) and shots[shot] == step + 1:
             picture()
+            shot += 1
         if on_step is not None:
             on_step()
     result = Simulation(
@@ -195,6 +212,38 @@ def simulate(
         cpu_seconds=time.process_time() - started,
     )
     return result, pictures
+
+
+def run_baselines(
+    env: WarehouseFleetEnv, *, steps: int, seed: int = 0, skip: str = ""
+) -> dict[str, Simulation]:
+    """The :data:`BASELINES` (but ``skip``) on ``env`` with the same seed and steps, by name."""
+    runs: dict[str, Simulation] = {}
+    for name in BASELINES:
+        if name != skip:
+            policy = make_policy(name, env, seed=seed)
+            runs[name], _ = simulate(env, policy, steps=steps, seed=seed, name=name)
+    return runs
+
+
+def comparison_table(runs: dict[str, Simulation]) -> str:
+    """:func:`~warehouse_phys.fleet_evaluation.compare_policies` of ``runs`` by name: one
+    line of measures each, then a ``WORSE:`` line for each run below a baseline."""
+    return compare_policies({name: _Row(run) for name, run in runs.items()})
+
+
+@dataclass(frozen=True)
+class _Row:
+    """A run as :func:`compare_policies` shows it: its measures without its name."""
+
+    run: Simulation
+
+    @property
+    def throughput(self) -> float:
+        return self.run.throughput
+
+    def summary(self) -> str:
+        return self.run.measures()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -232,6 +281,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--overwrite", action="store_true", help="reuse --out holding an earlier run's files"
     )
+    parser.add_argument(
+        "--no-compare", action="store_true",
+        help=f"never run the baselines ({', '.join(BASELINES)}); they run by default when "
+        f"robots x steps is at most {COMPARE_BUDGET:,} on the grid",
+    )  # fmt: skip
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
@@ -259,7 +313,10 @@ def main(argv: list[str] | None = None) -> int:
         finished = False
         try:
             result, frames = _run(args, env, policy, label)
-            _write(folder, env, result, frames)
+            runs = {result.policy: result}
+            if _compare(args):
+                runs |= run_baselines(env, steps=args.steps, seed=args.seed, skip=result.policy)
+            _write(folder, env, result, frames, runs)
             finished = True
         finally:
             folder.close(remove_if_empty=not finished)
@@ -273,6 +330,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     print(result.summary())
+    if len(runs) > 1:
+        print("against the baselines, on the same floor, seed and steps:")
+        print(comparison_table(runs))
     print(f"wrote {folder.path}/: {', '.join(folder.written)}")
     return 0
 
@@ -292,6 +352,11 @@ def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
     except (ValueError, TypeError, OSError) as error:
         raise UsageError(str(error).splitlines()[0]) from None
     return env, policy
+
+
+def _compare(args: argparse.Namespace) -> bool:
+    """Whether the baselines run too: unless --no-compare, on the grid, when cheap."""
+    return not args.no_compare and not args.physics and args.robots * args.steps <= COMPARE_BUDGET
 
 
 def _observation_of(policy: str) -> str:
@@ -330,12 +395,26 @@ def _run(
             raise UsageError(str(error).splitlines()[0]) from None
 
 
-def _write(folder: Any, env: WarehouseFleetEnv, result: Simulation, frames: list) -> None:
+def _write(
+    folder: Any,
+    env: WarehouseFleetEnv,
+    result: Simulation,
+    frames: list,
+    runs: dict[str, Simulation],
+) -> None:
     from warehouse_phys.animation import Animation
     from warehouse_phys.atomic import atomic_write_text
     from warehouse_phys.plots import congestion_figure, save_figure, throughput_figure
 
-    text = json.dumps(result.to_json(), indent=2) + "\n"
+    summary = result.to_json()
+    if len(runs) > 1:
+        keys = ("throughput", "deliveries", "waits", "refused")
+        summary["comparison"] = {
+            name: {key: run.to_json()[key] for key in keys} for name, run in runs.items()
+        }
+        worse = worse_policies(runs)
+        summary["worse_than"] = [{"policy": name, "reference": ref} for name, ref in worse]
+    text = json.dumps(summary, indent=2) + "\n"
     folder.write("summary.json", lambda path: atomic_write_text(path, text))
     folder.write(
         "throughput.png",
