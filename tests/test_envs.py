@@ -818,3 +818,58 @@ def test_a_big_endian_action_is_an_action(env_id):
     env.reset(seed=0)
     assert env.step(np.array(2, dtype=">i8"))[0][:2].tolist() == [0, 1]
     assert env.step(np.array(1, dtype=">u2"))[0][:2].tolist() == [1, 1]
+
+
+# ------------------------------------------------------- deep-RL options (issue 23)
+def test_step_and_bump_penalties_shape_the_reward(env_id):
+    env = gym.make(env_id, step_penalty=0.01, bump_penalty=0.1)
+    env.reset(seed=0, options={"target": (1, 1)})
+    actions = (Action.LEFT, Action.UP, Action.RIGHT, Action.RIGHT, Action.DOWN)
+    rewards = [env.step(action)[1] for action in actions]
+    assert rewards == pytest.approx([-0.11, -0.11, -0.01, -0.01, -0.01])  # 2 bumps, 3 moves
+    assert env.step(Action.LEFT)[1:3] == (1.0, True)  # reaching the package costs nothing
+
+
+def test_penalties_default_to_zero_and_leave_the_rewards_alone(env_id):
+    env = gym.make(env_id)
+    assert (env.unwrapped.step_penalty, env.unwrapped.bump_penalty) == (0.0, 0.0)
+    env.reset(seed=0, options={"target": (1, 1)})
+    assert [env.step(a)[1] for a in (Action.LEFT, Action.DOWN, Action.RIGHT)] == [0.0, 0.0, 1.0]
+
+
+@pytest.mark.parametrize(
+    ("value", "error"),
+    [(-0.1, ValueError), (math.nan, ValueError), (math.inf, ValueError), ("0.1", TypeError),
+     (None, TypeError), (True, TypeError), (np.timedelta64(1), TypeError)],
+)  # fmt: skip
+@pytest.mark.parametrize("keyword", ["step_penalty", "bump_penalty"])
+def test_bad_penalties_are_refused_by_name(env_id, keyword, value, error):
+    with pytest.raises(error, match=keyword):
+        gym.make(env_id, **{keyword: value})
+
+
+def test_onehot_observation_encodes_the_four_cells(env_id):
+    cells = gym.make(env_id)
+    onehot = gym.make(env_id, observation="onehot")
+    assert onehot.observation_space == gym.spaces.Box(0, 1, (18,), np.float32)
+    expected, _ = cells.reset(seed=3)
+    obs, _ = onehot.reset(seed=3)
+    for action in [Action.DOWN, Action.RIGHT, Action.RIGHT, Action.LEFT, Action.DOWN]:
+        assert obs.dtype == np.float32
+        assert obs in onehot.observation_space
+        offsets = np.array([0, 4, 9, 13])  # 0, R, R + C, 2R + C on the 4 x 5 floor
+        assert np.flatnonzero(obs).tolist() == (expected + offsets).tolist()
+        expected = cells.step(action)[0]
+        obs = onehot.step(action)[0]
+
+
+def test_onehot_observation_passes_check_env(env_id):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make(env_id, observation="onehot", step_penalty=0.01).unwrapped)
+
+
+@pytest.mark.parametrize(("value", "error"), [("one-hot", ValueError), (1, TypeError)])
+def test_an_unknown_observation_is_refused_by_name(env_id, value, error):
+    with pytest.raises(error, match="observation must be one of"):
+        gym.make(env_id, observation=value)

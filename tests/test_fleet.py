@@ -478,3 +478,44 @@ def test_frames_mark_a_delivered_robot_and_keep_colours_apart():
     frame = env.render()
     assert (frame[1 * 32 + 1, 2 * 32 + 1] == DELIVERED_FRAME).all()
     assert not (frame[3 * 32 + 1, 4 * 32 + 1] == DELIVERED_FRAME).all()
+
+
+# ------------------------------------------------- one-hot observations (issue 23)
+@pytest.mark.parametrize(("onehot", "plain"), [("onehot", "local"),
+                                               ("neighbours_onehot", "neighbours")])  # fmt: skip
+def test_onehot_observations_encode_the_local_view(onehot, plain):
+    kwargs = {"num_robots": 3, "on_delivery": "new_package", "max_cycles": 30}
+    coded = fleet.parallel_env(observation=onehot, **kwargs)
+    cells = fleet.parallel_env(observation=plain, **kwargs)
+    rows, cols = coded.grid.rows, coded.grid.cols
+    width = 2 * rows + 2 * cols + (4 if plain == "neighbours" else 0)
+    assert coded.observation_space("robot_0") == gym_box(width)
+    obs, _ = coded.reset(seed=2)
+    expected, _ = cells.reset(seed=2)
+    rng = np.random.default_rng(0)
+    while coded.agents:
+        for agent in coded.agents:
+            assert obs[agent] in coded.observation_space(agent)
+            view = expected[agent]
+            hot = (view[:4] + np.array([0, rows, rows + cols, 2 * rows + cols])).tolist()
+            if plain == "neighbours":  # the mask's bits after the one-hot cells
+                hot += [2 * rows + 2 * cols + k for k in range(4) if view[4] >> k & 1]
+            assert np.flatnonzero(obs[agent]).tolist() == sorted(hot)
+        actions = {agent: int(rng.integers(5)) for agent in coded.agents}
+        obs = coded.step(actions)[0]
+        expected = cells.step(actions)[0]
+
+
+def gym_box(width):
+    from gymnasium import spaces
+
+    return spaces.Box(0.0, 1.0, (width,), np.float32)
+
+
+@pytest.mark.parametrize("observation", ["onehot", "neighbours_onehot"])
+def test_pettingzoos_suites_pass_with_onehot_observations(observation):
+    kwargs = {"num_robots": 3, "observation": observation, "on_delivery": "leave",
+              "max_cycles": 40}  # fmt: skip
+    pettingzoo_quietly(parallel_api_test, fleet.parallel_env(**kwargs), num_cycles=100)
+    pettingzoo_quietly(parallel_seed_test, functools.partial(fleet.parallel_env, **kwargs), 40)
+    pettingzoo_quietly(api_test, fleet.env(**kwargs), num_cycles=60)

@@ -356,3 +356,69 @@ def test_big_endian_actions_move_as_native_ones(dtype):
     envs.reset(seed=0)
     obs, *_ = envs.step(np.array([2, 1, 0], dtype=dtype))
     assert obs[:, :2].tolist() == [[0, 1], [1, 0], [0, 0]]
+
+
+# ------------------------------------------------------- deep-RL options (issue 23)
+def replay_in_single_envs(env_id, num_envs, steps, **kwargs):
+    """Step a native vector env with random actions and replay every floor's episodes
+    in a single environment made with the same keywords; they must agree step by step."""
+    envs = gym.make_vec(env_id, num_envs=num_envs, **kwargs)
+    singles = [gym.make(env_id, **kwargs) for _ in range(num_envs)]
+    # The same floors, read as cells (for the packages of the one-hot floors).
+    cells = gym.make_vec(env_id, num_envs=num_envs, **{**kwargs, "observation": "cells"})
+    obs, _ = envs.reset(seed=5)
+    cell_obs, _ = cells.reset(seed=5)
+    for i, single in enumerate(singles):
+        first, _ = single.reset(options={"target": tuple(cell_obs[i, 2:])})
+        np.testing.assert_array_equal(first, obs[i])
+    restart = np.zeros(num_envs, dtype=bool)
+    ended = np.zeros(num_envs, dtype=np.int64)
+    rng = np.random.default_rng(1)
+    for _ in range(steps):
+        actions = rng.integers(4, size=num_envs)
+        obs, rewards, terminated, truncated, _ = envs.step(actions)
+        cell_obs = cells.step(actions)[0]
+        for i, single in enumerate(singles):
+            if restart[i]:
+                expected = single.reset(options={"target": tuple(cell_obs[i, 2:])})[0]
+                assert (rewards[i], terminated[i], truncated[i]) == (0.0, False, False)
+            else:
+                expected, reward, term, trunc, _ = single.step(int(actions[i]))
+                assert (rewards[i], terminated[i], truncated[i]) == (reward, term, trunc)
+            np.testing.assert_array_equal(obs[i], expected)
+        restart = terminated | truncated
+        ended += restart
+    assert ended.sum() >= num_envs  # episodes ended and restarted along the way
+    return envs
+
+
+@pytest.mark.parametrize("observation", ["cells", "onehot"])
+@pytest.mark.parametrize("env_id", [GRID_ID, warehouse_phys.PHYSICS_ENV_ID], ids=["grid", "phys"])
+def test_penalties_and_onehot_follow_the_single_environment(env_id, observation):
+    kwargs = {"step_penalty": 0.01, "bump_penalty": 0.25, "max_episode_steps": 12}
+    envs = replay_in_single_envs(env_id, 4, 60, observation=observation, **kwargs)
+    width = 2 * 4 + 2 * 5
+    if observation == "onehot":
+        assert envs.single_observation_space == gym.spaces.Box(0, 1, (width,), np.float32)
+        assert envs.observation_space.shape == (4, width)
+
+
+def test_penalties_are_checked_by_name():
+    for keyword in ("step_penalty", "bump_penalty"):
+        with pytest.raises(ValueError, match=keyword):
+            gym.make_vec(GRID_ID, num_envs=2, **{keyword: -1.0})
+        with pytest.raises(TypeError, match=keyword):
+            gym.make_vec(GRID_ID, num_envs=2, **{keyword: "1"})
+    with pytest.raises(ValueError, match="observation must be one of"):
+        gym.make_vec(GRID_ID, num_envs=2, observation="image")
+
+
+def test_the_sb3_adapter_without_stable_baselines3_names_the_extra(monkeypatch):
+    import sys
+
+    from warehouse_phys import sb3
+
+    monkeypatch.setitem(sys.modules, "stable_baselines3", None)
+    monkeypatch.setitem(sys.modules, "stable_baselines3.common", None)
+    with pytest.raises(ImportError, match=r'pip install "warehouse_phys\[sb3\]"'):
+        sb3.vec_env(GRID_ID, num_envs=2)

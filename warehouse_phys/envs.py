@@ -37,6 +37,10 @@ from warehouse_phys.render import (
 _ACTIONS: tuple[Action, ...] = tuple(Action)
 _ACTION_RANGE = ", ".join(f"{a.name}={a.value}" for a in Action)
 _RESET_OPTIONS = ("start", "target")
+#: The ``observation`` choices of the single and vector environments: ``"cells"`` (the
+#: default), the four integers ``[robot_row, robot_col, target_row, target_col]``;
+#: ``"onehot"``, the same four numbers one-hot encoded in one flat float32 vector.
+OBSERVATION_KINDS = ("cells", "onehot")
 _PHYSICS_DEFAULTS = PhysicsConfig()
 
 
@@ -77,8 +81,18 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         render_mode: str | None = None,
         cell_px: int = DEFAULT_CELL_PX,
         layout: str | Sequence[str] | None = None,
+        *,
+        observation: str = "cells",
+        step_penalty: float = 0.0,
+        bump_penalty: float = 0.0,
     ) -> None:
         refuse_durations(cell_px=cell_px)
+        self.observation = checked_choice("observation", observation, OBSERVATION_KINDS)
+        #: Subtracted from the reward of every step that does not reach the package.
+        self.step_penalty = checked_penalty("step_penalty", step_penalty)
+        #: Subtracted from the reward of every move a wall or shelf refuses.
+        self.bump_penalty = checked_penalty("bump_penalty", bump_penalty)
+        self._penalised = bool(self.step_penalty or self.bump_penalty)
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.grid_rows = self.grid.rows
         self.grid_cols = self.grid.cols
@@ -90,9 +104,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         self.render_mode = render_mode
 
         self.action_space = spaces.Discrete(len(Action))
-        self.observation_space = spaces.MultiDiscrete(
-            [self.grid_rows, self.grid_cols, self.grid_rows, self.grid_cols]
-        )
+        self.observation_space = observation_space(self.observation, self.grid_rows, self.grid_cols)
 
         self._robot: Cell | None = None
         self._target: Cell | None = None
@@ -126,9 +138,15 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         if self._robot is None:
             raise ResetNeeded("call reset() before step()")
         move = _checked_action(action)
+        before = self._robot
         self._robot = self._move_robot(move)
         self._last_action = move
         reward, terminated = self.grid.outcome(self._robot, self._target)
+        if self._penalised:
+            if not terminated:
+                reward -= self.step_penalty
+            if self._robot == before:  # a wall or a shelf refused the move
+                reward -= self.bump_penalty
         if self.render_mode == "human":
             self._show_move()
             self.render()
@@ -210,6 +228,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         robot = self._robot
         obs[0] = robot[0]
         obs[1] = robot[1]
+        if self.observation == "onehot":
+            return onehot(obs[None], self.grid_rows, self.grid_cols)[0]
         return obs
 
     def _get_info(self) -> dict[str, Any]:
@@ -327,6 +347,12 @@ class WarehouseGridEnv(WarehouseEnvBase):
     ``[robot_row, robot_col, target_row, target_col]`` every time, so
     ``q[tuple(obs)]`` indexes a Q-table of shape ``(R, C, R, C, 4)`` directly.
 
+    With ``observation="onehot"`` (for neural networks: an MLP policy reads it
+    as it is): ``Box(0, 1, (R + C + R + C,), float32)``, the same four numbers
+    one-hot encoded one after the other, so exactly four entries are 1.0:
+    ``robot_row``, ``R + robot_col``, ``R + C + target_row`` and
+    ``2R + C + target_col`` (:func:`onehot`).
+
     ## Starting State
     The robot stands on (0, 0). The target is drawn uniformly from rows 1..R-1
     and columns 1..C-1 (never row 0 or column 0, so never on the start) with
@@ -341,7 +367,18 @@ class WarehouseGridEnv(WarehouseEnvBase):
     first to try every target in turn.
 
     ## Rewards
-    1.0 on the step that puts the robot on the target, 0.0 on every other step.
+    1.0 on the step that puts the robot on the target, 0.0 on every other step
+    (the defaults). Two keywords shape it for deep RL, whose value-based agents
+    can drift away from a sparse reward that costs nothing to delay:
+
+    - ``step_penalty`` (float >= 0, default 0.0) is subtracted on every step
+      that does not put the robot on the target;
+    - ``bump_penalty`` (float >= 0, default 0.0) is subtracted on every step
+      whose move a wall or a shelf refuses (the robot stays where it was).
+
+    Both apply on the same step when a refused move leaves the robot off the
+    target: ``-(step_penalty + bump_penalty)``. A value that is not a finite
+    real number >= 0 raises ``TypeError`` or ``ValueError`` naming it.
 
     ## Episode End
     - Termination: the robot stands on the target.
@@ -386,6 +423,8 @@ class WarehouseGridEnv(WarehouseEnvBase):
       :func:`draw_offscreen_without_display`). A ``render_mode`` that is not
       a string raises ``TypeError``, in ``gym.make`` too.
     - ``cell_px`` (int, default 64): side of one cell in rendered frames, in pixels.
+    - Keyword-only: ``observation`` (``"cells"``, the default, or ``"onehot"``;
+      see Observation Space), ``step_penalty`` and ``bump_penalty`` (see Rewards).
 
     ```python
     import gymnasium as gym
@@ -442,7 +481,8 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
     ## Observation Space
     ``MultiDiscrete([R, C, R, C])`` with dtype ``int64``:
     ``[robot_row, robot_col, target_row, target_col]``, the robot's cell read
-    from the body's position.
+    from the body's position; with ``observation="onehot"`` the same four
+    numbers one-hot encoded, as in :class:`WarehouseGridEnv`.
 
     ## Starting State
     As in :class:`WarehouseGridEnv`, with the body at rest on the start cell's
@@ -455,7 +495,10 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
     ``"target"`` and ``"start"`` options.
 
     ## Rewards
-    1.0 on the step that puts the robot on the target, 0.0 on every other step.
+    1.0 on the step that puts the robot on the target, 0.0 on every other step,
+    less ``step_penalty`` and ``bump_penalty`` as in :class:`WarehouseGridEnv`
+    (a move is refused when the robot bumps into a wall or shelf and ends on its
+    own cell).
 
     ## Episode End
     As in :class:`WarehouseGridEnv`: termination on the target, truncation at
@@ -467,7 +510,8 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
     ``SNAP_ERROR_BOUND`` (0.02 of a cell); the defaults keep it under 0.005.
 
     ## Arguments
-    - ``grid_rows``, ``grid_cols``, ``render_mode``, ``cell_px``, ``layout``: as in
+    - ``grid_rows``, ``grid_cols``, ``render_mode``, ``cell_px``, ``layout`` and the
+      keyword-only ``observation``, ``step_penalty``, ``bump_penalty``: as in
       :class:`WarehouseGridEnv`. ``"human"`` plays every move as smooth motion
       in real time (one frame per physics step at 60 fps with the defaults),
       then shows the snapped frame. ``"rgb_array"`` returns the frame after the
@@ -529,8 +573,20 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
         move_duration: float = _PHYSICS_DEFAULTS.move_duration,
         settle_time: float = _PHYSICS_DEFAULTS.settle_time,
         record_path: bool | None = None,
+        observation: str = "cells",
+        step_penalty: float = 0.0,
+        bump_penalty: float = 0.0,
     ) -> None:
-        super().__init__(grid_rows, grid_cols, render_mode, cell_px, layout)
+        super().__init__(
+            grid_rows,
+            grid_cols,
+            render_mode,
+            cell_px,
+            layout,
+            observation=observation,
+            step_penalty=step_penalty,
+            bump_penalty=bump_penalty,
+        )
         #: The physical parameters, checked here; each reset builds its world from them.
         self.physics = PhysicsConfig(
             cell_size=cell_size,
@@ -638,6 +694,58 @@ def checked_record_path(record_path: object, render_mode: str | None) -> bool:
     if render_mode == "human" and not record_path:
         raise ValueError("render_mode='human' plays the recorded path: record_path must be on")
     return record_path
+
+
+def checked_penalty(name: str, value: object) -> float:
+    """``value`` as a float, if it is a finite real number >= 0, else an error naming ``name``.
+
+    Raises:
+        TypeError: if ``value`` is not a real number (a bool, a string, ``None``, ...).
+        ValueError: if it is negative, infinite or NaN.
+    """
+    if isinstance(value, (bool, np.bool_, np.timedelta64)) or not isinstance(
+        value, (int, float, np.integer, np.floating)
+    ):
+        raise TypeError(
+            f"{name} must be a real number >= 0, got {value!r} ({type(value).__name__})"
+        )
+    number = float(value)
+    if not math.isfinite(number) or number < 0:
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return number
+
+
+def checked_choice(name: str, value: object, choices: Sequence[str]) -> str:
+    """``value`` if it is one of ``choices``, else a ``ValueError`` (``TypeError`` for a
+    non-string) naming ``name`` and the choices."""
+    if not isinstance(value, str):
+        raise TypeError(
+            f"{name} must be one of {list(choices)}, got {value!r} ({type(value).__name__})"
+        )
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
+    return value
+
+
+def observation_space(observation: str, rows: int, cols: int) -> spaces.Space:
+    """The single observation space of ``observation`` (see :data:`OBSERVATION_KINDS`):
+    ``MultiDiscrete([R, C, R, C])``, or ``Box(0, 1, (R + C + R + C,), float32)``."""
+    if observation == "onehot":
+        return spaces.Box(0.0, 1.0, (2 * rows + 2 * cols,), np.float32)
+    return spaces.MultiDiscrete([rows, cols, rows, cols])
+
+
+def onehot(cells: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """Rows of ``[row, col, target_row, target_col]`` (shape ``(N, 4)``) one-hot encoded.
+
+    Returns a fresh ``(N, R + C + R + C)`` float32 array: in each row, a 1 at
+    ``row``, at ``R + col``, at ``R + C + target_row`` and at ``2R + C + target_col``,
+    0 elsewhere.
+    """
+    out = np.zeros((len(cells), 2 * rows + 2 * cols), dtype=np.float32)
+    offsets = np.array([0, rows, rows + cols, 2 * rows + cols], dtype=np.int64)
+    out[np.arange(len(cells))[:, None], cells + offsets] = 1.0
+    return out
 
 
 def make_grid(

@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 
 from warehouse_phys.batched_physics import ACTION_DELTA_ARRAY, BatchedPhysicsWorld
 from warehouse_phys.distances import DistanceMaps
-from warehouse_phys.envs import make_grid
+from warehouse_phys.envs import make_grid, onehot
 from warehouse_phys.layouts import suggested_time_limit
 from warehouse_phys.physics import check_controller, physics_config_from
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer
@@ -34,7 +34,7 @@ from warehouse_phys.traffic import (
     neighbour_table,
 )
 
-OBSERVATIONS = ("local", "global", "neighbours")
+OBSERVATIONS = ("local", "global", "neighbours", "onehot", "neighbours_onehot")
 DELIVERY_MODES = ("park", "leave", "new_package")
 START_MODES = ("auto", "layout", "random")
 #: Most robots whose observation may be ``"global"``: each robot's copy of the state
@@ -85,6 +85,13 @@ class WarehouseFleetEnv(ParallelEnv):
     - ``"global"``: every robot sees every robot's four numbers, in robot order
       (``MultiDiscrete([R, C, R, C] * num_robots)``), as :meth:`state` returns;
       at most :data:`MAX_GLOBAL_OBSERVATION_ROBOTS` robots.
+    - ``"onehot"``, for neural networks and SuperSuit: the ``"local"`` view one-hot
+      encoded as in the single environments, ``Box(0, 1, (R + C + R + C,),
+      float32)`` (1.0 at ``row``, ``R + col``, ``R + C + package_row`` and
+      ``2R + C + package_col``).
+    - ``"neighbours_onehot"``: ``"onehot"`` followed by the ``"neighbours"`` mask
+      as 4 bits of 0.0 or 1.0 in action order (a robot stands LEFT, DOWN, RIGHT,
+      UP), ``Box(0, 1, (R + C + R + C + 4,), float32)``.
 
     ## Starting State
     ``starts="layout"``: on a floor with several ``S`` cells robot ``i`` stands
@@ -135,7 +142,8 @@ class WarehouseFleetEnv(ParallelEnv):
       (bool), ``starts`` (``"auto"``, ``"layout"``, ``"random"``), ``max_cycles``
       (int; default :func:`~warehouse_phys.layouts.suggested_time_limit` of the
       floor, the single environments' limit), ``observation`` (``"local"``,
-      ``"neighbours"``, ``"global"``), ``render_mode`` (``None``; ``"rgb_array"``:
+      ``"neighbours"``, ``"global"``, ``"onehot"``, ``"neighbours_onehot"``),
+      ``render_mode`` (``None``; ``"rgb_array"``:
       every robot in a ring of its own colour, its package framed in the same
       colour; ``"ansi"``: robots as digits, packages as letters), ``cell_px``.
       :meth:`move_frames` gives the physics world's motion during the last step,
@@ -240,6 +248,10 @@ class WarehouseFleetEnv(ParallelEnv):
         rows = self.grid.rows
         self._local_space = spaces.MultiDiscrete([rows, cols, rows, cols])
         self._neighbours_space = spaces.MultiDiscrete([rows, cols, rows, cols, 16])
+        self._onehot_space = spaces.Box(0.0, 1.0, (2 * rows + 2 * cols,), np.float32)
+        self._neighbours_onehot_space = spaces.Box(
+            0.0, 1.0, (2 * rows + 2 * cols + len(NEIGHBOUR_BITS),), np.float32
+        )
         self._action_space = spaces.Discrete(FLEET_ACTIONS)
         n = self.num_robots
         self.state_space = (
@@ -312,12 +324,16 @@ class WarehouseFleetEnv(ParallelEnv):
             self._distances = DistanceMaps(self.grid)
         return self._distances
 
-    def observation_space(self, agent: str) -> spaces.MultiDiscrete:
+    def observation_space(self, agent: str) -> spaces.MultiDiscrete | spaces.Box:
         """The observation space of ``agent`` (the same object on every call)."""
         self._checked_agent(agent)
-        if self.observation == "neighbours":
-            return self._neighbours_space
-        return self._local_space if self.observation == "local" else self.state_space
+        return {
+            "local": self._local_space,
+            "neighbours": self._neighbours_space,
+            "global": self.state_space,
+            "onehot": self._onehot_space,
+            "neighbours_onehot": self._neighbours_onehot_space,
+        }[self.observation]
 
     def action_space(self, agent: str) -> spaces.Discrete:
         """``Discrete(5)``: the four moves and WAIT (the same object on every call)."""
@@ -617,6 +633,12 @@ class WarehouseFleetEnv(ParallelEnv):
         if self.observation == "neighbours":
             columns.append(self._neighbour_masks(live)[:, None])
         rows = np.concatenate(columns, axis=1)
+        if self.observation in ("onehot", "neighbours_onehot"):
+            rows = onehot(rows, self.grid.rows, self.grid.cols)
+            if self.observation == "neighbours_onehot":
+                bits = np.arange(len(NEIGHBOUR_BITS))
+                masks = (self._neighbour_masks(live)[:, None] >> bits) & 1
+                rows = np.concatenate([rows, masks.astype(np.float32)], axis=1)
         return dict(zip(self.agents, rows, strict=True))
 
     def _neighbour_masks(self, robots: np.ndarray) -> np.ndarray:

@@ -21,7 +21,17 @@ from gymnasium.vector.utils import batch_space
 
 from warehouse_phys.batched import BatchedRules
 from warehouse_phys.batched_physics import BatchedPhysicsWorld
-from warehouse_phys.envs import checked_record_path, make_grid, refuse_durations, status_line
+from warehouse_phys.envs import (
+    OBSERVATION_KINDS,
+    checked_choice,
+    checked_penalty,
+    checked_record_path,
+    make_grid,
+    observation_space,
+    onehot,
+    refuse_durations,
+    status_line,
+)
 from warehouse_phys.grid import Action
 from warehouse_phys.layouts import suggested_time_limit
 from warehouse_phys.physics import check_controller, physics_config_from
@@ -63,7 +73,9 @@ class WarehouseGridVectorEnv(VectorEnv):
     ``MultiDiscrete`` of shape ``(num_envs, 4)``, int64: row ``i`` is sub-environment
     ``i``'s ``[robot_row, robot_col, target_row, target_col]``
     (``single_observation_space`` is ``MultiDiscrete([R, C, R, C])``). A fresh
-    array every time.
+    array every time. With ``observation="onehot"``: ``Box(0, 1, (num_envs,
+    R + C + R + C), float32)``, each row the single environment's one-hot
+    observation (see :class:`~warehouse_phys.envs.WarehouseGridEnv`).
 
     ## Starting State
     Every robot on the start cell; every package drawn uniformly from the
@@ -72,7 +84,10 @@ class WarehouseGridVectorEnv(VectorEnv):
 
     ## Rewards
     1.0 to a sub-environment on the step its robot reaches its package, else 0.0
-    (float64).
+    (float64), less ``step_penalty`` on every step that does not reach it and
+    ``bump_penalty`` on every step whose move a wall or shelf refuses, exactly as
+    in the single environment (both default to 0.0). The step that restarts a
+    sub-environment (next-step autoreset) gives it 0.0.
 
     ## Episode End
     A sub-environment terminates on its package and is truncated when its episode
@@ -97,6 +112,8 @@ class WarehouseGridVectorEnv(VectorEnv):
       floor's :func:`~warehouse_phys.layouts.suggested_time_limit`.
     - ``render_mode`` (``None``, ``"rgb_array"`` or ``"ansi"``): ``render()``
       returns a tuple with one frame per sub-environment.
+    - Keyword-only: ``observation`` (``"cells"`` or ``"onehot"``), ``step_penalty``
+      and ``bump_penalty`` (finite floats >= 0), as in the single environment.
 
     ```python
     import gymnasium as gym
@@ -127,9 +144,18 @@ class WarehouseGridVectorEnv(VectorEnv):
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
         cell_px: int = DEFAULT_CELL_PX,
+        *,
+        observation: str = "cells",
+        step_penalty: float = 0.0,
+        bump_penalty: float = 0.0,
     ) -> None:
         self.num_envs = _checked_count("num_envs", num_envs, MAX_NUM_ENVS)
         refuse_durations(cell_px=cell_px)
+        self.observation = checked_choice("observation", observation, OBSERVATION_KINDS)
+        #: Subtracted from the reward of every step that does not reach the package.
+        self.step_penalty = checked_penalty("step_penalty", step_penalty)
+        #: Subtracted from the reward of every move a wall or shelf refuses.
+        self.bump_penalty = checked_penalty("bump_penalty", bump_penalty)
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.grid_rows, self.grid_cols = self.grid.rows, self.grid.cols
         if max_episode_steps is None:
@@ -145,8 +171,8 @@ class WarehouseGridVectorEnv(VectorEnv):
 
         self.single_action_space = spaces.Discrete(len(Action))
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.single_observation_space = spaces.MultiDiscrete(
-            [self.grid_rows, self.grid_cols, self.grid_rows, self.grid_cols]
+        self.single_observation_space = observation_space(
+            self.observation, self.grid_rows, self.grid_cols
         )
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
@@ -188,6 +214,11 @@ class WarehouseGridVectorEnv(VectorEnv):
         actions = self._checked_actions(actions)
         pos4 = self._move_robots(actions)
         terminated = pos4 == self._target4
+        rewards = terminated.astype(np.float64)
+        if self.step_penalty:
+            rewards[~terminated] -= self.step_penalty
+        if self.bump_penalty:  # a refused move leaves the robot on its cell
+            rewards[pos4 == self._pos4] -= self.bump_penalty
         steps = self._steps
         steps += 1
         truncated = steps >= self.max_episode_steps
@@ -196,6 +227,7 @@ class WarehouseGridVectorEnv(VectorEnv):
             self._restart(restart, pos4)
             terminated[restart] = False
             truncated[restart] = False
+            rewards[restart] = 0.0
         if self.render_mode is not None:  # the status lines name each floor's last action
             self._last_actions = actions.astype(np.int64)
             if restart is not None:
@@ -204,7 +236,7 @@ class WarehouseGridVectorEnv(VectorEnv):
         self._ended = np.flatnonzero(terminated | truncated)
         return (
             self._observations(),
-            terminated.astype(np.float64),
+            rewards,
             terminated,
             truncated,
             self._infos(),
@@ -244,7 +276,7 @@ class WarehouseGridVectorEnv(VectorEnv):
             return None
         if self._pos4 is None:
             raise ResetNeeded("call reset() before render()")
-        obs = self._observations()
+        obs = self._cell_observations()
         frames = []
         for (row, col, target_row, target_col), action in zip(
             obs.tolist(), self._last_actions.tolist(), strict=True
@@ -303,6 +335,13 @@ class WarehouseGridVectorEnv(VectorEnv):
         return slots
 
     def _observations(self) -> np.ndarray:
+        obs = self._cell_observations()
+        if self.observation == "onehot":
+            return onehot(obs, self.grid_rows, self.grid_cols)
+        return obs
+
+    def _cell_observations(self) -> np.ndarray:
+        """``[robot_row, robot_col, target_row, target_col]`` of every floor, ``(N, 4)``."""
         obs = np.empty((self.num_envs, 4), dtype=np.int64)
         pairs = obs.view(_PAIR)
         pairs[:, 0] = self._cell_rc4[self._pos4]
@@ -428,7 +467,7 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     ## Observation Space
     As :class:`WarehouseGridVectorEnv`: ``(num_envs, 4)`` int64 rows
     ``[robot_row, robot_col, target_row, target_col]``, the robot's cell read
-    from its body.
+    from its body, or their one-hot rows with ``observation="onehot"``.
 
     ## Starting State
     Every robot at rest on the start cell; packages drawn as in
@@ -439,7 +478,8 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     left over, and its episode replays bit for bit whatever came before it.
 
     ## Rewards
-    1.0 to a sub-environment on the step its robot reaches its package, else 0.0.
+    As :class:`WarehouseGridVectorEnv`: 1.0 on the step a robot reaches its
+    package, else 0.0, less ``step_penalty`` and ``bump_penalty``.
 
     ## Episode End
     As :class:`WarehouseGridVectorEnv`: termination on the package, truncation at
@@ -453,7 +493,8 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     ## Arguments
     - ``num_envs`` (int, default 1): how many floors, 1 to :data:`MAX_PHYSICS_ENVS`
       (65,536; each floor takes about 16 KB).
-    - ``grid_rows``, ``grid_cols``, ``layout``, ``max_episode_steps``, ``cell_px``:
+    - ``grid_rows``, ``grid_cols``, ``layout``, ``max_episode_steps``, ``cell_px``
+      and the keyword-only ``observation``, ``step_penalty``, ``bump_penalty``:
       as in :class:`WarehouseGridVectorEnv`.
     - ``render_mode`` (``None``, ``"rgb_array"`` or ``"ansi"``): ``render()``
       returns one frame per sub-environment, after the snap.
@@ -493,11 +534,24 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
         render_mode: str | None = None,
         cell_px: int = DEFAULT_CELL_PX,
         record_path: bool | None = None,
+        *,
+        observation: str = "cells",
+        step_penalty: float = 0.0,
+        bump_penalty: float = 0.0,
         **physics: float,
     ) -> None:
         _checked_count("num_envs", num_envs, MAX_PHYSICS_ENVS)
         super().__init__(
-            num_envs, grid_rows, grid_cols, layout, max_episode_steps, render_mode, cell_px
+            num_envs,
+            grid_rows,
+            grid_cols,
+            layout,
+            max_episode_steps,
+            render_mode,
+            cell_px,
+            observation=observation,
+            step_penalty=step_penalty,
+            bump_penalty=bump_penalty,
         )
         #: The physical parameters, checked here as the single environment checks them.
         self.physics = physics_config_from(physics)
