@@ -348,3 +348,23 @@ def test_a_parked_robot_keeps_its_colour_in_a_green_frame_and_packages_show_unde
     assert (frame[0:12, 0:12] == render_module.MAP_ROBOT_COLOURS[0]).all()  # not framed
     with pytest.raises(ValueError, match="cell_px must be at least 1"):
         render_module.fleet_map_frame(floor, robots, packages, cell_px=0)
+
+
+def test_small_fleet_cells_draw_discs_keep_packages_visible_and_frame_the_delivered():
+    px = 16  # under FLEET_SPRITE_MIN_PX: array drawing, no sprites
+    renderer = WarehouseRenderer(3, 4, cell_px=px)
+    robots = [(0.0, 0.0), (2.0, 3.0), (1.5, 1.0)]  # the third half-way between two cells
+    packages = [(2, 3), (1, 1), (0, 0)]  # robot_0 stands on robot_2's package
+    frame = renderer.fleet_rgb_array(robots, packages, delivered=[False, True, False])
+    colours = render_module.MAP_ROBOT_COLOURS
+    assert (frame[px // 2, px // 2] == colours[0]).all()  # robot_0's disc
+    assert (frame[2 * px, 1 * px + px // 2] == colours[2]).all()  # robot_2 between cells
+    assert (frame[0, 0] == colours[2]).all()  # robot_2's package framed round robot_0
+    assert (frame[px + px // 2, px + px // 2] == render_module.MAP_PACKAGE).all()  # robot_1's
+    assert (frame[px, px] == colours[1]).all()
+    delivered_cell = frame[2 * px : 3 * px, 3 * px : 4 * px]
+    assert (delivered_cell[0] == render_module.DELIVERED_FRAME).all()  # green all round
+    assert (delivered_cell[:, -1] == render_module.DELIVERED_FRAME).all()
+    assert (delivered_cell[px // 2, px // 2] == colours[1]).all()  # its colour inside
+    assert (frame[0:px, 0:px] != render_module.DELIVERED_FRAME).any(axis=-1).all()
+    renderer.close()
