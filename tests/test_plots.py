@@ -7,6 +7,7 @@ from warehouse_phys import SNAP_ERROR_BOUND, Action, WarehouseGrid
 from warehouse_phys.fleet_learning import FleetEvaluation
 from warehouse_phys.physics import PhysicsConfig
 from warehouse_phys.plots import (
+    congestion_figure,
     fleet_delay_figure,
     fleet_gap_figure,
     frame_strips_figure,
@@ -18,6 +19,8 @@ from warehouse_phys.plots import (
     save_figure,
     snap_error_figure,
     speed_profile_figure,
+    throughput_by_robots_figure,
+    throughput_figure,
 )
 from warehouse_phys.qlearning import QLearningConfig, TrainingResult, new_q_table
 
@@ -196,3 +199,36 @@ def test_fleet_delay_figure_shows_steps_against_shortest_paths_and_misses():
     assert [p.get_height() for p in missed_ax.patches] == [10, 5]
     with pytest.raises(ValueError, match="nothing to plot"):
         fleet_delay_figure({})
+
+
+def test_throughput_figure_shows_each_step_its_rolling_mean_and_the_throughput():
+    deliveries = np.array([0, 2, 4, 2] * 10)
+    title = "pibt, 192 robots on kiva-33-46, 40 steps (new_package): " + "measures " * 10
+    figure = throughput_figure(deliveries, title, window=4)
+    (ax,) = figure.axes
+    raw, mean, level = ax.lines
+    assert list(raw.get_ydata()) == deliveries.tolist()
+    assert mean.get_ydata()[-1] == 2.0
+    assert level.get_ydata()[0] == 2.0
+    assert "throughput 2.00 deliveries/step" in [t.get_text() for t in ax.get_legend().texts]
+    assert "\n" in ax.get_title()  # a long title wraps rather than being cut off
+
+
+def test_congestion_figure_fits_the_floors_shape_and_greys_the_shelves():
+    grid = WarehouseGrid.from_layout(["." * 40, "." + "#" * 38 + ".", *["." * 40] * 8])
+    waits = np.zeros((10, 40))
+    waits[0, 3] = 7
+    figure = congestion_figure(grid, waits)
+    width, height = figure.get_size_inches()
+    assert width / height > 2.5  # a wide floor, a wide figure
+    image = figure.axes[0].images[0]
+    assert image.get_array().mask[1, 5]  # a shelf: masked, drawn grey
+    assert image.get_array().max() == 7
+    assert figure.axes[0].get_title() == "Congestion: 7 waits"
+
+
+def test_throughput_by_robots_draws_the_measures_and_published_lines():
+    figure = throughput_by_robots_figure({128: 3.4, 64: 2.0}, {"paper": 3.0})
+    (ax,) = figure.axes
+    assert list(ax.lines[0].get_xdata()) == [64, 128]
+    assert ax.lines[1].get_ydata()[0] == 3.0

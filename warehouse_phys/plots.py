@@ -8,6 +8,7 @@ canvas: no pyplot, no window, nothing global. Save one with
 from __future__ import annotations
 
 import os
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -401,6 +402,10 @@ def save_figure(figure: Figure, path: str | os.PathLike[str]) -> Path:
     return atomic_write(path, lambda file: figure.savefig(file, format="png", dpi=100))
 
 
+#: Characters a line of a figure's title holds before it wraps.
+TITLE_WIDTH = 80
+
+
 def throughput_figure(deliveries: np.ndarray, title: str = "", window: int = 32) -> Figure:
     """Deliveries at each step of a lifelong run, and their rolling mean over ``window``
     steps: the throughput over time [deliveries/step]."""
@@ -417,7 +422,7 @@ def throughput_figure(deliveries: np.ndarray, title: str = "", window: int = 32)
     ax.set_xlabel("step")
     ax.set_ylabel("deliveries")
     ax.legend(loc="lower right", fontsize="small")
-    ax.set_title(title or "Throughput over time")
+    ax.set_title(textwrap.fill(title, TITLE_WIDTH) if title else "Throughput over time")
     return figure
 
 
@@ -426,13 +431,15 @@ def congestion_figure(grid: WarehouseGrid, waits: np.ndarray, title: str = "") -
     waits = np.asarray(waits, dtype=np.float64).reshape(grid.rows, grid.cols)
     shown = np.ma.masked_array(waits, mask=~_free_mask(grid))
     aspect = grid.cols / grid.rows
-    figure = _figure(
-        (min(12.0, 2 + 5 * aspect), 5) if aspect >= 1 else (6, min(12.0, 2 + 5 / aspect))
-    )
+    # The map's own shape, at most 12 inches wide or tall, plus room for the title and
+    # the colour bar: a 500 x 140 floor gets a wide, low figure, not blank bands.
+    width, height = (12.0, 12.0 / aspect) if aspect >= 1 else (12.0 * aspect, 12.0)
+    scale = min(1.0, 8.0 / height) if aspect >= 1 else 8.0 / height
+    figure = _figure((max(4.0, width * scale) + 1.5, max(2.0, height * scale) + 0.8))
     ax = figure.add_subplot()
     ax.set_facecolor("#808080")
     image = ax.imshow(shown, cmap="magma_r", interpolation="nearest")
-    figure.colorbar(image, ax=ax, label="waits on the cell")
+    figure.colorbar(image, ax=ax, label="waits on the cell", shrink=min(1.0, 0.4 + 0.6 / aspect))
     ax.set_xticks([])
     ax.set_yticks([])
     ax.set_title(title or f"Congestion: {int(waits.sum()):,} waits")
