@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from warehouse_phys import fleet
-from warehouse_phys.fleet_evaluation import shortest_path_policy
+from warehouse_phys.fleet_evaluation import evaluate_fleet, shortest_path_policy
 from warehouse_phys.render import MAP_PACKAGE, MAP_ROBOT_COLOURS, fleet_map_frame
 from warehouse_phys.simulate import main, simulate
 
@@ -142,3 +142,19 @@ def test_the_kiva_warehouse_map_runs_the_planner(tmp_path, capsys):
     with Image.open(out / "fleet.gif") as gif:
         assert gif.size == (46 * 21, 33 * 21)  # the longer side fits 1000 px
         assert gif.n_frames == 3
+
+
+@pytest.mark.parametrize(("on_delivery", "seed"), [("park", 2), ("leave", 2), ("park", 3)])
+def test_a_one_shot_run_measures_as_evaluate_fleet_does(on_delivery, seed):
+    env = fleet.parallel_env(num_robots=4, layout="aisles", on_delivery=on_delivery,
+                             max_cycles=30)  # fmt: skip
+    evaluation = evaluate_fleet(env, shortest_path_policy, seeds=range(seed, seed + 1))
+    result, _ = simulate(env, shortest_path_policy, steps=30, seed=seed)
+    assert result.delivered == evaluation.delivered
+    assert result.makespan == evaluation.makespan
+    assert result.sum_of_costs == evaluation.sum_of_costs
+    assert int(result.shortest.sum()) == evaluation.all_shortest_steps
+    assert result.walled_off == evaluation.walled_off
+    assert result.refused == evaluation.refused
+    assert "makespan" in result.summary()
+    assert result.to_json()["sum_of_costs"] == result.sum_of_costs

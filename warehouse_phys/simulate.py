@@ -38,6 +38,7 @@ from warehouse_phys.fleet_evaluation import (
     compare_policies,
     random_fleet_policy,
     shortest_path_policy,
+    walled_off_packages,
     worse_policies,
 )
 
@@ -73,10 +74,44 @@ class Simulation:
     refused: int
     #: Seconds of CPU time the run took, the environment and the policy together.
     cpu_seconds: float
+    #: One-shot runs only (``on_delivery`` ``"park"`` or ``"leave"``): the step at which
+    #: each robot delivered, 0 for a robot that did not, ``(robots,)``.
+    delivered_at: np.ndarray | None = None
+    #: One-shot runs only: each robot's shortest path to its package from its start.
+    shortest: np.ndarray | None = None
+    #: One-shot runs only: undelivered packages that parked robots wall off at the end.
+    walled_off: int = 0
 
     @property
     def steps(self) -> int:
         return len(self.deliveries)
+
+    @property
+    def one_shot(self) -> bool:
+        return self.delivered_at is not None
+
+    @property
+    def delivered(self) -> int:
+        """Robots that delivered their package (one-shot), or deliveries (lifelong)."""
+        if self.delivered_at is None:
+            return int(self.deliveries.sum())
+        return int(np.count_nonzero(self.delivered_at))
+
+    @property
+    def makespan(self) -> int:
+        """One-shot: the step of the last delivery, or the run's length when a robot did
+        not deliver."""
+        if self.delivered_at is None or not self.delivered_at.all():
+            return self.steps
+        return int(self.delivered_at.max()) if len(self.delivered_at) else 0
+
+    @property
+    def sum_of_costs(self) -> int:
+        """One-shot: each robot's steps until it delivered, an undelivered robot counted at
+        the run's length, summed."""
+        if self.delivered_at is None:
+            return 0
+        return int(np.where(self.delivered_at > 0, self.delivered_at, self.steps).sum())
 
     @property
     def throughput(self) -> float:
@@ -84,12 +119,21 @@ class Simulation:
         return float(self.deliveries.mean()) if self.steps else 0.0
 
     def measures(self) -> str:
-        """The measures in one line: throughput, deliveries, waits and refused moves."""
-        return (
+        """The measures in one line: throughput, deliveries, waits and refused moves; and
+        one-shot, the makespan and the sum of costs against the shortest paths'."""
+        line = (
             f"throughput {self.throughput:.2f} deliveries/step, "
             f"{int(self.deliveries.sum()):,} deliveries, {int(self.waits.sum()):,} waits, "
             f"{self.refused:,} refused moves"
         )
+        if self.delivered_at is not None and self.shortest is not None:
+            walled = f" ({self.walled_off:,} walled off)" if self.walled_off else ""
+            line += (
+                f"; {self.delivered:,}/{self.robots:,} delivered{walled}, makespan "
+                f"{self.makespan}, sum of costs {self.sum_of_costs:,} against "
+                f"{int(self.shortest.sum()):,} on shortest paths"
+            )
+        return line
 
     def summary(self) -> str:
         return (
@@ -111,7 +155,20 @@ class Simulation:
             "waits": int(self.waits.sum()),
             "refused": self.refused,
             "cpu_seconds": self.cpu_seconds,
+            **self._one_shot_json(),
             "deliveries_per_step": self.deliveries.tolist(),
+        }
+
+    def _one_shot_json(self) -> dict[str, Any]:
+        if self.delivered_at is None or self.shortest is None:
+            return {}
+        return {
+            "delivered": self.delivered,
+            "undelivered": self.robots - self.delivered,
+            "walled_off": self.walled_off,
+            "makespan": self.makespan,
+            "sum_of_costs": self.sum_of_costs,
+            "shortest_paths": int(self.shortest.sum()),
         }
 
 
@@ -170,6 +227,11 @@ def simulate(
     observations, infos = env.reset(seed=seed)
     grid, cols = env.grid, env.grid.cols
     waits = np.zeros(grid.rows * cols, dtype=np.int64)
+    cells, packages = env.robot_cells, env.package_cells
+    shortest = env.distances.lookup(
+        cells[:, 0] * cols + cells[:, 1], packages[:, 0] * cols + packages[:, 1]
+    ).astype(np.int64)
+    delivered_at = np.zeros(env.num_robots, dtype=np.int64)
     deliveries, refused, pictures = [], 0, []
     # The steps after which a frame is taken (0: at the reset), evenly spread.
     shots = np.unique(np.linspace(0, steps, min(frames, steps + 1)).round().astype(int))
@@ -188,9 +250,12 @@ def simulate(
         before = env.robot_cells.copy()
         working = env.on_floor & ~env.parked
         actions = policy(env, observations, infos)
-        observations, rewards, _, _, infos = env.step(actions)
-        observations = {agent: observations[agent] for agent in env.agents}
-        deliveries.append(int(sum(rewards.values())))
+        delivered_before = int(env.deliveries.sum())
+        observations, _, _, _, infos = env.step(actions)
+        if len(observations) != len(env.agents):
+            observations = {agent: observations[agent] for agent in env.agents}
+        deliveries.append(int(env.deliveries.sum()) - delivered_before)
+        delivered_at[(env.deliveries > 0) & (delivered_at == 0)] = step + 1
         refused += sum(info["refused"] for info in infos.values())
         stayed = working & (env.robot_cells == before).all(axis=1)
         np.add.at(waits, before[stayed, 0] * cols + before[stayed, 1], 1)
@@ -210,6 +275,15 @@ def simulate(
         waits=waits.reshape(grid.rows, grid.cols),
         refused=int(refused),
         cpu_seconds=time.process_time() - started,
+        **(
+            {}
+            if env.lifelong
+            else {
+                "delivered_at": delivered_at,
+                "shortest": shortest,
+                "walled_off": walled_off_packages(env) if not delivered_at.all() else 0,
+            }
+        ),
     )
     return result, pictures
 
