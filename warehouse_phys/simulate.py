@@ -12,11 +12,16 @@ steps: ``pibt`` (the planner of :mod:`warehouse_phys.planning`), ``shortest``
 written by ``python -m warehouse_phys.train --robots N``. ``--on-delivery``
 (default ``new_package``: lifelong) says what a robot does with a delivered
 package; ``--physics`` drives the physics twin. The command prints the throughput
-(deliveries per step), deliveries, waits and refused moves, and writes a run
-folder (default ``runs/simulate-<floor>-<robots>-<policy>-seed<seed>-<time>``):
-``summary.json``, ``throughput.png`` (deliveries over time), ``congestion.png``
-(waits on each cell) and ``fleet.gif`` (at most ``--frames`` frames, sized to fit
-a 1000-pixel frame). Bad arguments end with exit status 2 and a one-line message.
+(deliveries per step), deliveries, waits and refused moves (one-shot, also the
+packages delivered, the makespan, the sum of costs against the shortest paths' and
+the packages walled off); when it is cheap (robots x steps at most
+:data:`COMPARE_BUDGET` on the grid; ``--no-compare`` skips it) it runs the
+shortest-path and random baselines on the same floor, seed and steps and names a
+policy that does worse. It writes a run folder (default
+``runs/simulate-<floor>-<robots>-<policy>-seed<seed>-<time>``): ``summary.json``
+(with the comparison), ``throughput.png`` (deliveries over time), ``congestion.png``
+(waits on each cell) and ``fleet.gif`` (``--frames`` frames evenly spread, sized to
+fit a 1000-pixel frame). Bad arguments end with exit status 2 and a one-line message.
 """
 
 from __future__ import annotations
