@@ -21,12 +21,14 @@ PPO on the grid twin, one-hot observations for the MLP, a small step penalty::
 
 DQN with its defaults learns the default floor, but with the sparse reward
 alone (nothing is lost by delaying, nothing by bumping into a wall) its policy
-can drift away again as training goes on; a step penalty keeps it on the
-shortest paths::
+drifts away again as training goes on: with seed 0 it reaches 11 of the 12
+targets by a shortest path at 50k steps and none at 75k and 100k. A step
+penalty of 0.1 keeps it on the shortest paths (12 of 12 at 50k, 75k and 100k;
+0.01 is too small: 4 of 12 at 100k)::
 
     from stable_baselines3 import DQN
 
-    env = vec_env("warehouse-robot-v0", num_envs=1, seed=0, step_penalty=0.01)
+    env = vec_env("warehouse-robot-v0", num_envs=1, seed=0, step_penalty=0.1)
     model = DQN("MlpPolicy", env, seed=0).learn(100_000)
 
 Any keyword of the single environment goes through (``grid_rows``, ``layout``,
