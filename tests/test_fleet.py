@@ -297,13 +297,20 @@ def test_bad_arguments_are_refused_by_name(kwargs, error, message):
     ],
 )
 def test_bad_actions_are_refused_and_change_nothing(actions, error, message):
-    env = fleet.parallel_env(num_robots=2)
+    env = fleet.parallel_env(num_robots=2, lifelong=True)
     env.reset(seed=0)
-    before = env.state()
+    before, generator = env.state(), env.np_random.bit_generator.state
     with pytest.raises(error, match=message):
         env.step(actions)
     assert np.array_equal(env.state(), before)
+    assert env.np_random.bit_generator.state == generator
     assert env.steps == 0
+    reference = fleet.parallel_env(num_robots=2, lifelong=True)
+    reference.reset(seed=0)
+    for _ in range(20):  # and it goes on as if the bad call never happened
+        joint = {"robot_0": 2, "robot_1": 1}
+        assert env.step(joint)[1] == reference.step(joint)[1]
+        assert np.array_equal(env.state(), reference.state())
 
 
 def test_frames_show_every_robot_in_its_colour():
