@@ -38,6 +38,8 @@ if TYPE_CHECKING:
 NIL = -1
 #: Without corner follows, how many robots of a line in the way are asked to leave it.
 _MAX_ASKED = 8
+#: Floors of at most this many cells keep every cell's exits as lists (faster checks).
+_EXITS_LISTED = 200_000
 
 
 class PIBT:
@@ -51,8 +53,14 @@ class PIBT:
       once from ``seed``) when its goal changes, so a robot that waits long enough
       comes first (how PIBT reaches every goal: see below).
     - Candidates are the cells a move leads to and staying put, tried nearest to the
-      goal first (exact distances from :class:`~warehouse_phys.distances.DistanceMaps`)
-      with ties broken at random by a generator seeded with ``seed``.
+      goal first (exact distances from :class:`~warehouse_phys.distances.DistanceMaps`,
+      one look-up for every robot's five), among equals a cell nobody stands on (no
+      push needed), then at random by a generator seeded with ``seed``.
+    - With corner follows, PIBT's swap operation (Okumura 2023, LaCAM*'s PIBT): a robot
+      whose best cell holds a robot that can only get out through its own cell (a
+      corridor closed at the far end, a pocket left by parked robots) steps back, away
+      from its goal, and pulls that robot into its cell, so the two pass each other
+      where the corridor opens instead of facing each other for ever.
     - A robot that is not ``movable`` (parked on its delivered package) holds its cell
       and is never pushed; robots not ``present`` (gone from the floor) are ignored and
       wait.
@@ -69,12 +77,13 @@ class PIBT:
     robot of highest priority always moves to a cell nearer its goal, so every robot,
     once its turn at the top comes, reaches its goal: lifelong fleets on such floors
     never deadlock. What it does not promise: shortest paths or a bound on the sum of
-    costs (it is a greedy, one-step planner); progress in dead ends, where two robots
-    must pass each other in a corridor closed at one end (a parked robot can make
-    one), nor delivery in one-shot runs where a parked robot walls a package off (no
-    planner can); and, without corner follows, PIBT's guarantee (the two-step
-    inheritance is a heuristic: it resolves a robot blocking another against a wall,
-    not every standoff).
+    costs (it is a greedy, one-step planner); progress in dead ends, where robots must
+    pass each other in a corridor closed at one end (a parked robot can make one): the
+    swap operation resolves the common case of two, not every one; nor delivery in
+    one-shot runs where a parked robot walls a package off (no planner can); and,
+    without corner follows, PIBT's guarantee (the two-step inheritance is a
+    heuristic: it resolves a robot blocking another against a wall, not every
+    standoff; the swap operation is not made there).
 
     Args:
         grid: The floor.
@@ -106,6 +115,12 @@ class PIBT:
         #: Distances round the robots that hold their cells (parked), and those cells.
         self._around: DistanceMaps = self.distances
         self._held = np.empty(0, dtype=np.int64)
+        #: Each cell's neighbouring cells a robot can enter (no shelf, no held cell).
+        self._exits_of: list[list[int]] = []
+        self._set_exits(self._held)
+        #: Per plan: each robot's goal, and whether its distances ignore the held cells.
+        self._goal_list: list[int] = []
+        self._plain: np.ndarray = np.zeros(0, dtype=bool)
 
     def plan(
         self,
@@ -143,17 +158,25 @@ class PIBT:
         moving = np.flatnonzero(movable)
         candidates = self._table[here[moving]]  # (m, 5): the four moves, then staying
         targets = np.repeat(goal[moving], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
+        self._goal_list = goal.tolist()
+        self._plain = np.isin(goal, self._held) if self._held.size else np.ones(n, dtype=bool)
         if distances is self.distances:
             distance = distances.lookup(candidates, targets).astype(np.float64)
         else:  # round the held cells, but not towards one: that goal is on the plain floor
             distance = np.empty(candidates.shape, dtype=np.float64)
-            onto_held = np.isin(goal[moving], self._held)
+            onto_held = self._plain[moving]
             for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
                 if rows.any():
                     distance[rows] = maps.lookup(candidates[rows], targets[rows])
         blocked = candidates[:, :WAIT] == here[moving, None]  # a move into a wall or shelf
         distance[:, :WAIT][blocked] = np.inf  # UNREACHABLE cells stay last but one
-        order = np.argsort(distance + 0.5 * self.rng.random(distance.shape), axis=1)
+        # Nearest first; among equals a cell nobody stands on now (no one to push),
+        # then at random.
+        occupied = np.zeros(self.grid.rows * cols, dtype=bool)
+        occupied[here[present]] = True
+        pushes = occupied[candidates] & (candidates != here[moving, None])
+        tie_break = self.rng.random(distance.shape)
+        order = np.lexsort((tie_break, pushes, distance), axis=1)
         ranked = np.take_along_axis(candidates, order, axis=1)
         ranked[np.take_along_axis(np.isinf(distance), order, axis=1)] = NIL
         ranked_of: list[list[int] | None] = [None] * n
@@ -194,6 +217,7 @@ class PIBT:
         parked robot would wait beside it for ever. Rebuilt when the held cells change."""
         if not np.array_equal(held, self._held):
             self._held = held
+            self._set_exits(held)
             self._around = self.distances
             if held.size:
                 cols = self.grid.cols
@@ -208,6 +232,89 @@ class PIBT:
                         WarehouseGrid.from_layout(rows), max_bytes=self.distances.max_bytes
                     )
         return self._around
+
+    def _set_exits(self, held: np.ndarray) -> None:
+        """The cells a robot can enter from each cell: moves that stay on the floor, off
+        the shelves and off the ``held`` cells (the swap operation's graph)."""
+        cells = np.arange(len(self._table))
+        moves = self._table[:, :WAIT]
+        enterable = moves != cells[:, None]
+        if held.size:
+            enterable &= ~np.isin(moves, held)
+        self._exits_of = (
+            [row[ok].tolist() for row, ok in zip(moves, enterable, strict=True)]
+            if len(cells) <= _EXITS_LISTED
+            else []
+        )
+        self._moves, self._enterable = moves, enterable
+
+    def _exits(self, cell: int) -> list[int]:
+        if self._exits_of:
+            return self._exits_of[cell]
+        return self._moves[cell][self._enterable[cell]].tolist()
+
+    def _distance(self, robot: int, cell: int) -> int:
+        """Robot ``robot``'s distance from ``cell`` to its goal, on the same maps as its
+        candidates."""
+        maps = self.distances if self._plain[robot] else self._around
+        goal = self._goal_list[robot]
+        return int(maps.lookup(np.array([cell]), np.array([goal]))[0])
+
+    def _swap_partner(
+        self, i: int, here: list[int], ranked: list[int], plan: list[int], occupied_now: list[int]
+    ) -> int:
+        """The robot that ``i`` should let pass by stepping back (PIBT's swap operation,
+        Okumura 2023), or :data:`NIL`: a robot ``j`` in ``i``'s way whose only way out runs
+        through ``i``'s cell (a corridor closed at the far end, or one with no room to
+        pass), where pushing ``j`` on can never succeed. ``i`` then steps away from its
+        goal and pulls ``j`` into its cell; the two pass each other where the corridor
+        opens."""
+        best = next((cell for cell in ranked if cell != NIL), NIL)
+        if best == NIL or best == here[i]:
+            return NIL
+        j = occupied_now[best]
+        if (
+            j != NIL
+            and plan[j] == NIL
+            and len(self._exits(best)) <= 2
+            and self._swap_required(i, j, here[i], here[j])
+            and self._swap_possible(here[j], here[i])
+        ):
+            return j
+        return NIL
+
+    def _swap_required(self, pusher: int, puller: int, v_pusher: int, v_puller: int) -> bool:
+        """Whether ``pusher``, pushing ``puller`` on towards its own goal along a corridor,
+        would reach no cell where the two can pass, and ``puller`` wants to come back."""
+        distance = self._distance
+        for _ in range(len(self._table)):
+            if distance(pusher, v_puller) >= distance(pusher, v_pusher):
+                break
+            ahead = [cell for cell in self._exits(v_puller) if cell != v_pusher]
+            if len(ahead) >= 2:
+                return False  # room to pass
+            if not ahead:
+                break  # a dead end
+            v_pusher, v_puller = v_puller, ahead[0]
+        return distance(puller, v_pusher) < distance(puller, v_puller) and (
+            distance(pusher, v_pusher) == 0
+            or distance(pusher, v_puller) < distance(pusher, v_pusher)
+        )
+
+    def _swap_possible(self, v_pusher: int, v_puller: int) -> bool:
+        """Whether the robot on ``v_puller``, backing away from ``v_pusher`` along the
+        corridor, reaches a cell with room for the other to pass."""
+        origin = v_pusher
+        for _ in range(len(self._table)):
+            if v_puller == origin:
+                return False  # round a loop
+            behind = [cell for cell in self._exits(v_puller) if cell != v_pusher]
+            if len(behind) >= 2:
+                return True
+            if not behind:
+                return False
+            v_pusher, v_puller = v_puller, behind[0]
+        return False
 
     def _update_priorities(self, here: np.ndarray, goal: np.ndarray) -> None:
         """Grow the priority of every robot still on its way to the same goal; a robot
@@ -239,14 +346,16 @@ class PIBT:
         """PIBT's recursive ``funcPIBT`` from robot ``root``, with an explicit stack (a
         chain of pushed robots can be longer than Python's recursion allows): the
         planner of a fleet whose robots may follow each other round corners."""
-        # Each frame: [robot, its candidates, the position of the next one to try].
-        stack = [[root, ranked_of[root], 0]]
+        # Each frame: [robot, its candidates, the position of the next one to try, the
+        # robot it pulls into its cell once it moves (the swap operation) or NIL].
+        stack = [self._frame(root, here, ranked_of, plan, occupied_now)]
         child_planned = None  # the outcome of the frame just popped
         while stack:
             frame = stack[-1]
-            i, candidates, position = frame
+            i, candidates, position, partner = frame
             if child_planned is not None:
                 if child_planned:  # the pushed robot got out of the way: done
+                    self._pull(i, partner, here, plan, occupied_next)
                     stack.pop()
                     child_planned = True
                     continue
@@ -263,8 +372,9 @@ class PIBT:
                 occupied_next[cell] = i
                 if j != NIL and j != i and plan[j] == NIL:  # j inherits: it must move
                     frame[2] = position
-                    stack.append([j, ranked_of[j], 0])
+                    stack.append(self._frame(j, here, ranked_of, plan, occupied_now))
                     break
+                self._pull(i, partner, here, plan, occupied_next)
                 stack.pop()
                 child_planned = True
                 break
@@ -273,6 +383,32 @@ class PIBT:
                 occupied_next[here[i]] = i
                 stack.pop()
                 child_planned = False
+
+    def _frame(
+        self,
+        i: int,
+        here: list[int],
+        ranked_of: list[Any],
+        plan: list[int],
+        occupied_now: list[int],
+    ) -> list[Any]:
+        """A stack frame of :meth:`_pibt` for robot ``i``: its candidates, reversed (away
+        from its goal first) when it must let a robot pass (:meth:`_swap_partner`)."""
+        candidates = ranked_of[i]
+        partner = self._swap_partner(i, here, candidates, plan, occupied_now)
+        if partner != NIL:
+            candidates = candidates[::-1]
+        return [i, candidates, 0, partner]
+
+    @staticmethod
+    def _pull(
+        i: int, partner: int, here: list[int], plan: list[int], occupied_next: list[int]
+    ) -> None:
+        """The swap operation's second half: ``i`` has moved off its cell, and ``partner``,
+        if not planned yet, follows it there."""
+        if partner != NIL and plan[partner] == NIL and occupied_next[here[i]] == NIL:
+            plan[partner] = here[i]
+            occupied_next[here[i]] = partner
 
     def _pibt_straight(
         self,
@@ -384,6 +520,6 @@ def pibt_policy(seed: int = 0) -> FleetPolicy:
             env.robot_cells, env.package_cells, ~env.parked & env.on_floor, env.on_floor
         ).tolist()
         index = state["index"]
-        return {agent: actions[index[agent]] for agent in observations}
+        return {agent: actions[index[agent]] for agent in env.agents}
 
     return policy
