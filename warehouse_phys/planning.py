@@ -431,7 +431,22 @@ class PIBT:
         (any way but back) does, and its cell stays empty: on the next step the line
         closes up and ``i`` moves on. Priority inheritance over two steps, where corner
         follows do it in one.
+
+        The swap operation is made straight, for a robot in a pocket (a cell with one way
+        out): a robot ``i`` that must let it out (:meth:`_swap_partner`) backs away from
+        it in the line of the two, pushing the line behind it, and pulls it on after it.
         """
+        partner = self._swap_partner(i, here, ranked_of[i], plan, occupied_now)
+        if partner != NIL and len(self._exits(here[partner])) == 1:  # a pocket
+            away = int(self._table[here[i], self._action_of[here[i] - here[partner]]])
+            if away != here[i]:
+                own = ranked_of[i]
+                ranked_of[i] = [away]
+                line = self._move_straight(i, here, ranked_of, plan, occupied_now, occupied_next)
+                ranked_of[i] = own
+                if line is None:
+                    self._pull(i, partner, here, plan, occupied_next)
+                    return
         line = self._move_straight(i, here, ranked_of, plan, occupied_now, occupied_next)
         if line is None:
             return
@@ -481,6 +496,9 @@ class PIBT:
                 onward = int(table[ahead, action])
                 if onward == ahead:
                     goes = False  # pushed into a wall or a shelf
+                    break
+                if len(self._exits(onward)) == 1 and onward != self._goal_list[j]:
+                    goes = False  # pushed into a pocket it would have to back out of
                     break
                 ahead = onward
             if not goes:
