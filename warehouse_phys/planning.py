@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from warehouse_phys.distances import DistanceMaps
-from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.grid import ACTION_DELTAS, WarehouseGrid
 from warehouse_phys.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 
 if TYPE_CHECKING:
@@ -109,7 +109,10 @@ class PIBT:
         self._table = neighbour_table(grid)
         cols = grid.cols
         #: The action of a move by its change of cell index.
-        self._action_of = {-1: 0, cols: 1, 1: 2, -cols: 3}
+        #: The action of a move by its change of cell index plus ``cols`` (WAIT for 0).
+        self._action_of = [WAIT] * (2 * cols + 1)
+        for action, (d_row, d_col) in enumerate(ACTION_DELTAS):
+            self._action_of[d_row * cols + d_col + cols] = action
         self._priority: np.ndarray | None = None
         self._goals: np.ndarray | None = None
         #: Distances round the robots that hold their cells (parked), and those cells.
@@ -205,10 +208,8 @@ class PIBT:
                 step_one(i, here_list, ranked_of, plan, occupied_now, occupied_next)
 
         actions = np.full(n, WAIT, dtype=np.int64)
-        for i in moving.tolist():
-            step = plan[i] - here_list[i]
-            if step:
-                actions[i] = self._action_of[step]
+        step = np.array(plan, dtype=np.int64)[moving] - here[moving] + cols
+        actions[moving] = np.array(self._action_of, dtype=np.int64)[step]
         return actions
 
     def _distances_round(self, held: np.ndarray) -> DistanceMaps:
@@ -438,7 +439,9 @@ class PIBT:
         """
         partner = self._swap_partner(i, here, ranked_of[i], plan, occupied_now)
         if partner != NIL and len(self._exits(here[partner])) == 1:  # a pocket
-            away = int(self._table[here[i], self._action_of[here[i] - here[partner]]])
+            away = int(
+                self._table[here[i], self._action_of[here[i] - here[partner] + self.grid.cols]]
+            )
             if away != here[i]:
                 own = ranked_of[i]
                 ranked_of[i] = [away]
@@ -471,7 +474,7 @@ class PIBT:
         the line ahead of it straight on, and return None; or, when staying is the best
         left (nothing is planned then), the robots in the way of the first better cell
         that could not be reached, nearest first (perhaps none)."""
-        table, action_of = self._table, self._action_of
+        table, action_of, cols = self._table, self._action_of, self.grid.cols
         blocked_by: list[int] = []
         for cell in ranked_of[i]:
             if cell == NIL or occupied_next[cell] != NIL:
@@ -479,7 +482,7 @@ class PIBT:
             if cell == here[i]:
                 break  # staying is the best that is left
             step = cell - here[i]
-            action = action_of[step]
+            action = action_of[step + cols]
             line, ahead = [], cell  # the unplanned robots to push, and the cell reached
             while True:
                 if occupied_next[ahead] != NIL:
