@@ -286,21 +286,21 @@ class PIBT:
 
     def _swap_required(self, pusher: int, puller: int, v_pusher: int, v_puller: int) -> bool:
         """Whether ``pusher``, pushing ``puller`` on towards its own goal along a corridor,
-        would reach no cell where the two can pass, and ``puller`` wants to come back."""
+        would run into the corridor's closed end short of its goal, and ``puller`` wants
+        to come back out. (LaCAM*'s test also swaps when the push would carry ``puller``
+        past its goal; on our floors that turned two robots in an aisle back and forth
+        for ever, so a swap here is made only where pushing cannot work.)"""
         distance = self._distance
         for _ in range(len(self._table)):
             if distance(pusher, v_puller) >= distance(pusher, v_pusher):
-                break
+                return False  # pushing on takes the pusher home
             ahead = [cell for cell in self._exits(v_puller) if cell != v_pusher]
             if len(ahead) >= 2:
                 return False  # room to pass
-            if not ahead:
-                break  # a dead end
+            if not ahead:  # the closed end
+                return distance(puller, v_pusher) < distance(puller, v_puller)
             v_pusher, v_puller = v_puller, ahead[0]
-        return distance(puller, v_pusher) < distance(puller, v_puller) and (
-            distance(pusher, v_pusher) == 0
-            or distance(pusher, v_puller) < distance(pusher, v_pusher)
-        )
+        return False
 
     def _swap_possible(self, v_pusher: int, v_puller: int) -> bool:
         """Whether the robot on ``v_puller``, backing away from ``v_pusher`` along the
