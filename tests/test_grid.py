@@ -10,7 +10,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from warehouse_phys import grid as grid_module
-from warehouse_phys.grid import MAX_SIDE, START_CELL, Action, Cell, WarehouseGrid
+from warehouse_phys.grid import ACTION_DELTAS, MAX_SIDE, START_CELL, Action, Cell, WarehouseGrid
 
 sizes = st.tuples(st.integers(2, 12), st.integers(2, 12))
 
@@ -348,3 +348,62 @@ def test_a_layout_may_hold_several_starts_for_a_fleet():
     assert (0, 2) not in plain.target_cells
     assert plain.target_cells == ((0, 1), (1, 0), (1, 1), (1, 2))
     assert WarehouseGrid(3, 3).starts == ((0, 0),)
+
+
+def test_a_given_start_is_marked_and_a_chosen_one_is_not():
+    assert WarehouseGrid(3, 4).starts_marked
+    assert WarehouseGrid.from_layout(["S.", ".."]).starts_marked
+    corner = WarehouseGrid.from_layout(["..", ".."])
+    assert not corner.starts_marked
+    assert corner.start == (0, 0)
+    assert corner.starts == ((0, 0),)
+    assert (0, 0) not in corner.target_cells
+
+
+@pytest.mark.parametrize(
+    ("layout", "start"),
+    [
+        (["#.", ".."], (0, 1)),  # the corner is a shelf
+        ([".#...", "##...", "#...."], (0, 2)),  # the corner is walled into one cell
+        (["..#..", "..#.."], (0, 0)),  # two regions of 4: the first
+        (["P.#....", "..#...."], (0, 1)),  # the package's region, not on the package
+        (["PP#..", "###.."], (0, 0)),  # a region of packages only: its first cell
+    ],
+)  # fmt: skip
+def test_without_a_start_the_robot_begins_in_the_largest_region(layout, start):
+    grid = WarehouseGrid.from_layout(layout)
+    assert grid.start == start
+    assert not grid.starts_marked
+    assert grid.start not in grid.target_cells
+
+
+def _regions(layout):
+    """An independent oracle: the free regions by flood fill, in reading order."""
+    seen, regions = set(), []
+    for r, row in enumerate(layout):
+        for c, symbol in enumerate(row):
+            if symbol == "#" or (r, c) in seen:
+                continue
+            region, queue = [], deque([(r, c)])
+            seen.add((r, c))
+            while queue:
+                cell = queue.popleft()
+                region.append(cell)
+                for dr, dc in ACTION_DELTAS:
+                    nr, nc = cell[0] + dr, cell[1] + dc
+                    inside = 0 <= nr < len(layout) and 0 <= nc < len(row)
+                    if inside and layout[nr][nc] != "#" and (nr, nc) not in seen:
+                        seen.add((nr, nc))
+                        queue.append((nr, nc))
+            regions.append(sorted(region))
+    return regions
+
+
+@given(layouts())
+def test_the_chosen_start_is_the_first_cell_of_the_first_largest_region(layout):
+    grid = WarehouseGrid.from_layout(layout)
+    regions = _regions(layout)
+    largest = max(len(region) for region in regions)
+    first = next(region for region in regions if len(region) == largest)
+    assert grid.start == first[0]
+    assert grid.reachable == set(first)

@@ -5,6 +5,8 @@ from pathlib import Path
 
 import gymnasium as gym
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import warehouse_phys
 from warehouse_phys import layouts as layouts_module
@@ -250,27 +252,40 @@ def test_the_generator_refuses_bad_sizes_by_name(kwargs, error, message):
         layouts_module.warehouse(**kwargs)
 
 
-@pytest.mark.parametrize("seed", range(6))
-def test_written_maps_read_back_as_the_same_floor(tmp_path, seed):
-    import numpy as np
-
-    rng = np.random.default_rng(seed)
-    rows, cols = rng.integers(2, 9, size=2)
-    cells = rng.choice(
-        ["#", ".", ".", ".", "P"] if seed % 2 else ["#", ".", "."], size=(rows, cols)
-    )
-    cells[0, 0] = "S"
+@st.composite
+def floors(draw):
+    """Random small floors: shelves, floor, some package cells, starts anywhere."""
+    rows, cols = draw(st.integers(1, 6)), draw(st.integers(2, 6))
+    alphabet = draw(st.sampled_from(["#..", "#...P", "#..S", "#..SP"]))
+    symbols = draw(st.lists(st.sampled_from(alphabet), min_size=rows * cols,
+                            max_size=rows * cols))  # fmt: skip
+    layout = ["".join(symbols[r * cols : (r + 1) * cols]) for r in range(rows)]
     try:
-        grid = WarehouseGrid.from_layout(["".join(row) for row in cells])
-    except ValueError:  # a P the start cannot reach, or no package cell
-        return
-    path = layouts_module.write_movingai(grid, tmp_path / "out.map")
-    packages = "endpoints" if "E" in path.read_text() else "all"
-    again = layouts_module.read_movingai(path, packages=packages)
-    assert again.shelves == grid.shelves
+        return WarehouseGrid.from_layout(layout)
+    except ValueError:  # unreachable starts or packages, or no cell for a package
+        assume(False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(grid=st.one_of(floors(), st.builds(WarehouseGrid, st.integers(2, 5), st.integers(2, 5))))
+def test_written_maps_read_back_as_the_same_floor(tmp_path_factory, grid):
+    path = layouts_module.write_movingai(grid, tmp_path_factory.mktemp("maps") / "out.map")
+    text = path.read_text()
+    assert text.startswith(f"type octile\nheight {grid.rows}\nwidth {grid.cols}\nmap\n")
+    again = layouts_module.read_movingai(path, packages="endpoints" if "E" in text else "all")
     assert (again.rows, again.cols) == (grid.rows, grid.cols)
-    if packages == "endpoints":
-        assert set(again.target_cells) == set(grid.target_cells)
+    assert again.shelves == grid.shelves
+    assert set(again.target_cells) == set(grid.target_cells)
+    assert not again.starts_marked
+
+
+def test_maps_of_connected_floors_without_a_start_are_written_without_endpoints(tmp_path):
+    for rows, endpoints in ((["..", ".#"], False), (["S.", ".#"], False),
+                            ([".S", ".#"], True), ([".P", ".#"], True),
+                            ([".#.", "##."], False)):  # fmt: skip
+        grid = WarehouseGrid.from_layout(rows)
+        text = layouts_module.write_movingai(grid, tmp_path / "floor.map").read_text()
+        assert ("E" in text) == endpoints, rows
 
 
 def test_large_benchmark_maps_read_quickly_and_whole():

@@ -2,7 +2,8 @@
 
 Every environment of the package follows these rules, so the grid twin and the
 physics-backed environment cannot drift apart. This module imports neither
-gymnasium, pymunk nor pygame: only numpy, for the random generator type.
+gymnasium, pymunk nor pygame: only numpy (for the random generator type and the
+floor's regions) and, for a layout that marks no start, scipy's region labelling.
 """
 
 from __future__ import annotations
@@ -111,10 +112,14 @@ class WarehouseGrid:
 
         ``.`` is floor, ``#`` a shelf, ``P`` floor on which packages may
         appear and ``S`` a start: the first ``S`` in reading order is the
-        robot's (without one, the first cell in reading order of the largest
-        region of floor connected by moves: ``(0, 0)`` on a connected floor
-        whose corner is free; :attr:`starts_marked` is then False), and a fleet
-        (:mod:`warehouse_phys.fleet`) puts a robot on each. Without ``P``,
+        robot's, and a fleet (:mod:`warehouse_phys.fleet`) puts a robot on
+        each. Without ``S`` (:attr:`starts_marked` is then False) the robot
+        starts on the first cell in reading order of the largest region of
+        floor connected by moves, so that it reaches the most floor: ``(0, 0)``
+        on a connected floor whose corner is free. When the layout marks ``P``
+        cells, only the regions holding one compete, and the start is the
+        region's first cell that is not a ``P`` (a ``P`` only if the region has
+        nothing else), so no package is lost to the start. Without ``P``,
         packages may appear on every floor cell the robot can reach, except
         the starts. Cells are reached by moves between free neighbours; floor
         that cannot be reached is allowed (an office, say) but never holds a
@@ -155,7 +160,7 @@ class WarehouseGrid:
                         f"unknown layout symbol {symbol!r} at row {r}, column {c}; known: {known}"
                     )
         starts = [Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == START]
-        start = starts[0] if starts else _first_cell_of_largest_region(rows)
+        start = starts[0] if starts else _unmarked_start(rows)
         shelves = frozenset(
             Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == SHELF
         )
@@ -401,17 +406,26 @@ def move_table(grid: WarehouseGrid) -> list[list[tuple[Cell, ...]]] | None:
     return _move_table((grid.rows, grid.cols, grid.layout))
 
 
-def _first_cell_of_largest_region(rows: Sequence[str]) -> Cell:
-    """The first cell, in reading order, of the largest region of free cells connected
-    by moves (the first such region on a tie)."""
+def _unmarked_start(rows: Sequence[str]) -> Cell:
+    """The start of a layout that marks none: the first cell, in reading order, of the
+    largest region of free cells connected by moves (the first such region on a tie).
+    When the layout marks package cells, only the regions holding one compete, and the
+    start is the region's first cell that is not a package cell (if it has one)."""
     from scipy.ndimage import label  # imported here: only floors without a start need it
 
-    free = np.array([[symbol != SHELF for symbol in row] for row in rows], dtype=bool)
-    regions, count = label(free)  # 4-connected, numbered in reading order
+    # Symbols are checked to be ASCII layout symbols, so one byte is one cell.
+    symbols = np.frombuffer("".join(rows).encode("ascii"), dtype=np.uint8)
+    symbols = symbols.reshape(len(rows), len(rows[0]))
+    regions, count = label(symbols != ord(SHELF))  # 4-connected, numbered in reading order
     if count == 0:
         raise ValueError("the layout has no floor: every cell is a shelf")
-    largest = int(np.bincount(regions.ravel())[1:].argmax()) + 1
-    first = int(np.flatnonzero(regions.ravel() == largest)[0])
+    sizes = np.bincount(regions.ravel(), minlength=count + 1)
+    packages = symbols == ord(PACKAGE)
+    candidates = np.unique(regions[packages]) if packages.any() else np.arange(1, count + 1)
+    chosen = candidates[int(sizes[candidates].argmax())]  # ascending: the first on a tie
+    region = regions.ravel() == chosen
+    plain = region & ~packages.ravel()
+    first = int(np.flatnonzero(plain if plain.any() else region)[0])
     return Cell(first // len(rows[0]), first % len(rows[0]))
 
 

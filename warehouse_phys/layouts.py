@@ -238,9 +238,15 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
     The header is ``type <name>``, ``height H``, ``width W``, ``map``, then come ``H``
     rows of ``W`` symbols: passable ``.``, ``G``, ``S`` (swamp) and ``E`` (endpoint),
     blocked ``@``, ``O``, ``T`` and ``W`` (shelves here). ``packages="all"`` (default,
-    POGEMA's convention) lets packages appear on every free cell; ``"endpoints"`` only on
-    ``E`` cells. No start is marked (``starts_marked`` is False): the single robot
-    starts on the first cell of the largest free region, a fleet draws its starts.
+    POGEMA's convention) lets packages appear on every free cell of the start's region
+    but the start itself (the single robot's start is never a package cell; free cells
+    cut off from it are never reached); ``"endpoints"`` only on ``E`` cells, which must
+    then all lie in one region. Maps larger than :data:`~warehouse_phys.grid.MAX_SIDE`
+    cells a side are refused. No start is marked (``starts_marked`` is False): a fleet
+    draws its starts, and the single robot starts on the first cell in reading order of the
+    largest free region (with ``"endpoints"``: of the largest region holding an ``E``,
+    on its first cell that is not an ``E``), as
+    :meth:`~warehouse_phys.grid.WarehouseGrid.from_layout` does for rows without ``S``.
 
     Raises:
         ValueError: one line naming the file (and the line) for a file that is missing,
@@ -324,14 +330,28 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
 
 
 def write_movingai(grid: WarehouseGrid, path: str | os.PathLike[str]) -> Path:
-    """Save ``grid`` as a MovingAI ``.map`` file, atomically: shelves ``@``, floor ``.``;
-    when packages may appear on only some cells, those are ``E``, so that
-    ``read_movingai(path, packages="endpoints")`` gives the same package cells (the
-    format has no start: a marked start is not kept). Returns the path."""
+    """Save ``grid`` as a MovingAI ``.map`` file (``type octile``), atomically; returns the
+    path.
+
+    Shelves are ``@`` and floor ``.``. The format has no start, so a floor is read back
+    with its start chosen as for any map (see :func:`read_movingai`). When that floor,
+    read with ``packages="all"``, would have other package cells than ``grid`` (packages
+    on some cells only, or a start elsewhere), the package cells are written as ``E``, and
+    ``read_movingai(path, packages="endpoints")`` gives the same shelves and package
+    cells (its start is the first floor cell of the packages' region that is not a
+    package cell). Read the file with ``packages="endpoints"`` when it has an ``E``,
+    ``"all"`` otherwise, and the floor round-trips.
+    """
     rows = [["@" if (r, c) in grid.shelves else "." for c in range(grid.cols)]
             for r in range(grid.rows)]  # fmt: skip
-    free = {(r, c) for r in range(grid.rows) for c in range(grid.cols)} - grid.shelves
-    if set(grid.target_cells) != free - set(grid.starts):
+    try:
+        plain = WarehouseGrid.from_layout(
+            ["".join("#" if symbol == "@" else "." for symbol in row) for row in rows]
+        )
+        endpoints = set(plain.target_cells) != set(grid.target_cells)
+    except ValueError:  # a floor of one reachable cell: packages="all" leaves no package
+        endpoints = True
+    if endpoints:
         for r, c in grid.target_cells:
             rows[r][c] = MOVINGAI_ENDPOINT
     header = f"type octile\nheight {grid.rows}\nwidth {grid.cols}\nmap\n"
