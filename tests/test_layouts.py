@@ -209,10 +209,19 @@ def test_missing_binary_and_folder_maps_are_refused(tmp_path):
             layouts_module.read_movingai(path)
     junk = tmp_path / "junk.map"
     junk.write_bytes(b"type octile\n\x89PNG\x00\xff")
-    with pytest.raises(ValueError, match="line 2: not a MovingAI map"):
+    with pytest.raises(ValueError, match="line 2, column 1: byte 0x89 is not ASCII text"):
         layouts_module.read_movingai(junk)
     with pytest.raises(ValueError, match="packages must be"):
         layouts_module.read_movingai(junk, packages="some")
+
+
+def test_windows_line_ends_and_a_byte_order_mark_are_read(tmp_path):
+    path = tmp_path / "floor.map"
+    path.write_bytes(b"\xef\xbb\xbf" + MAP_TEXT.replace("\n", "\r\n").encode("ascii"))
+    assert layouts_module.read_movingai(path).shelves == {(0, 0), (1, 1)}
+    path.write_text(MAP_TEXT.replace(".T.G", ".T\u00e9G"), encoding="utf-8")
+    with pytest.raises(ValueError, match=r"line 6, column 3: byte 0xc3 is not ASCII"):
+        layouts_module.read_movingai(path)
 
 
 def test_the_warehouse_preset_is_the_kiva_benchmark_floor():
@@ -236,6 +245,29 @@ def test_the_generator_builds_the_floor_it_is_asked_for():
         ".###..###.",
         "..........",
     )
+
+
+@pytest.mark.parametrize(
+    ("sizes", "shape"),
+    [
+        ({}, (33, 46)),
+        ({"shelf_rows": 3, "blocks_per_row": 4, "block_length": 5}, (13, 37)),
+        ({"shelf_rows": 1, "aisle_width": 9, "margin_rows": 1, "margin_cols": 0}, (3, 32)),
+    ],
+)
+def test_the_generator_gives_the_sizes_and_counts_of_its_parameters(sizes, shape):
+    kw = {"shelf_rows": 8, "blocks_per_row": 3, "block_length": 10, **sizes}
+    rows = layouts_module.warehouse(**sizes)
+    assert (len(rows), len(rows[0])) == shape
+    assert sum(row.count("#") for row in rows) == (
+        kw["shelf_rows"] * kw["blocks_per_row"] * kw["block_length"]
+    )
+    shelf_rows = [row for row in rows if "#" in row]
+    assert len(shelf_rows) == kw["shelf_rows"]
+    assert all(row.count("#" * kw["block_length"]) == kw["blocks_per_row"] for row in shelf_rows)
+    grid = WarehouseGrid.from_layout(rows)
+    assert not grid.starts_marked
+    assert len(grid.reachable) == grid.rows * grid.cols - len(grid.shelves)  # connected
 
 
 @pytest.mark.parametrize(

@@ -271,11 +271,16 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
             f"{path}: larger than any map of at most {MAX_SIDE} x {MAX_SIDE} cells "
             f"({MAX_MAP_BYTES:,} bytes)"
         )
+    data = data.removeprefix(b"\xef\xbb\xbf")  # a UTF-8 byte order mark, as some editors add
     try:
         text = data.decode("ascii")
     except UnicodeDecodeError as error:
         line = data[: error.start].count(b"\n") + 1
-        raise ValueError(f"{path}, line {line}: not a MovingAI map (binary data)") from None
+        column = error.start - (data.rfind(b"\n", 0, error.start) + 1) + 1
+        raise ValueError(
+            f"{path}, line {line}, column {column}: byte {data[error.start]:#04x} is not ASCII "
+            "text; not a MovingAI map"
+        ) from None
     lines = text.splitlines()
     sizes = {}
     for number, key in enumerate(_HEADER, start=1):
@@ -292,8 +297,8 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
                     f"{path}, line {number}: {key} must be an integer, got {words[1][:40]!r}"
                 ) from None
             if not 1 <= sizes[key] <= MAX_SIDE:
-                raise ValueError(f"{path}, line {number}: {key} must be 1 to {MAX_SIDE}, "
-                                 f"got {sizes[key]}")  # fmt: skip
+                raise ValueError(f"{path}, line {number}: {key} must be 1 to {MAX_SIDE} (the "
+                                 f"largest floor), got {words[1][:40]}")  # fmt: skip
     height, width = sizes["height"], sizes["width"]
     body = lines[len(_HEADER) :]
     while body and len(body) > height and not body[-1].strip():
