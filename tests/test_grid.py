@@ -407,3 +407,12 @@ def test_the_chosen_start_is_the_first_cell_of_the_first_largest_region(layout):
     first = next(region for region in regions if len(region) == largest)
     assert grid.start == first[0]
     assert grid.reachable == set(first)
+
+
+def test_long_lists_of_cells_in_layout_errors_are_cut_short():
+    rows = ["S" + "." * 39, "#" * 40, "P" * 40]
+    with pytest.raises(
+        ValueError, match=r"\[\(2, 0\), .*\(2, 4\), \.\.\. \(40 in all\)\]"
+    ) as error:
+        WarehouseGrid.from_layout(rows)
+    assert len(str(error.value)) < 200

@@ -179,11 +179,18 @@ def test_a_movingai_map_reads_as_a_floor(tmp_path):
         ("type octile\nheight 3\n", "line 3: expected 'width <value>', got the end of the file"),
         ("type octile\nheight x\nwidth 4\nmap\n", "line 2: height must be an integer"),
         ("type octile\nheight 99999\nwidth 4\nmap\n", "line 2: height must be 1 to"),
+        ("type octile\nheight 3\nwidth " + "9" * 5000 + "\nmap\n", "line 3: width must be 1 to"),
+        (
+            "type octile\nheight 3\nwidth 4\nmap\n@..E\n.\x0c.G\nE..S\n",
+            r"line 6, column 2: unknown",
+        ),
+        ("type octile\nheight 1\nwidth 2\nmap\n@.\n.\n", "line 6: the header says 1 row,"),
         ("type octile\nheight 3\nwidth 4\nmapp\n", "line 4: expected 'map'"),
         ("type octile\nheight 3\nwidth 4\nmap\n@..E\n.T.G\n", "line 7: the header says 3 rows"),
         ("type octile\nheight 3\nwidth 4\nmap\n@..E\n.T.\nE..S\n", "line 6: a row of 3"),
         ("type octile\nheight 3\nwidth 4\nmap\n@..E\n.T.x\nE..S\n", "line 6, column 4: unknown"),
-        ("type octile\nheight 1\nwidth 2\nmap\n@@\n", "every cell is a shelf"),
+        ("type octile\nheight 1\nwidth 2\nmap\n@@\n", r"line 5 \(map row 0\): .*every cell is"),
+        ("type octile\nheight 2\nwidth 2\nmap\n.@\n@.\n", r"lines 5-6 \(map rows 0-1\): .*no cell"),
         ("type octile\nheight 2\nwidth 2\nmap\n..\n..\n", None),
     ],
 )
@@ -213,6 +220,15 @@ def test_missing_binary_and_folder_maps_are_refused(tmp_path):
         layouts_module.read_movingai(junk)
     with pytest.raises(ValueError, match="packages must be"):
         layouts_module.read_movingai(junk, packages="some")
+
+
+def test_endpoints_out_of_reach_are_listed_briefly(tmp_path):
+    text = "type octile\nheight 3\nwidth 400\nmap\n" + "\n".join(["E" * 400, "@" * 400, "E" * 400])
+    with pytest.raises(
+        ValueError, match=r"lines 5-7 .*\(2, 4\), \.\.\. \(400 in all\)\] cannot"
+    ) as error:
+        layouts_module.read_movingai(write(tmp_path, text), packages="endpoints")
+    assert len(str(error.value)) < 300
 
 
 def test_windows_line_ends_and_a_byte_order_mark_are_read(tmp_path):

@@ -169,7 +169,8 @@ class WarehouseGrid:
         stranded = [tuple(cell) for cell in starts if cell not in grid.reachable]
         if stranded:
             raise ValueError(
-                f"start cells {stranded} cannot be reached from the start {tuple(start)}"
+                f"start cells {_cell_list(stranded)} cannot be reached from the start "
+                f"{tuple(start)}"
             )
         grid.starts = tuple(starts) or (start,)
         grid.starts_marked = bool(starts)
@@ -180,7 +181,8 @@ class WarehouseGrid:
             unreachable = [tuple(cell) for cell in marked if cell not in grid.reachable]
             if unreachable:
                 raise ValueError(
-                    f"package cells {unreachable} cannot be reached from the start {tuple(start)}"
+                    f"package cells {_cell_list(unreachable)} cannot be reached from the start "
+                    f"{tuple(start)}"
                 )
             targets = tuple(cell for cell in marked if cell not in grid.starts)
         else:
@@ -404,6 +406,18 @@ def move_table(grid: WarehouseGrid) -> list[list[tuple[Cell, ...]]] | None:
     if grid.rows * grid.cols > MOVE_TABLE_CELLS:
         return None
     return _move_table((grid.rows, grid.cols, grid.layout))
+
+
+#: Most cells an error message lists; the rest are counted.
+LISTED_CELLS = 5
+
+
+def _cell_list(cells: Sequence[tuple[int, int]]) -> str:
+    """``cells`` as a list for an error message: the first :data:`LISTED_CELLS`, then how
+    many there are in all, so that a message stays one short line on any floor."""
+    shown = ", ".join(str(tuple(cell)) for cell in cells[:LISTED_CELLS])
+    more = f", ... ({len(cells)} in all)" if len(cells) > LISTED_CELLS else ""
+    return f"[{shown}{more}]"
 
 
 def _unmarked_start(rows: Sequence[str]) -> Cell:

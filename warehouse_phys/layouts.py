@@ -19,6 +19,7 @@ and written by :func:`write_movingai`.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -281,7 +282,11 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
             f"{path}, line {line}, column {column}: byte {data[error.start]:#04x} is not ASCII "
             "text; not a MovingAI map"
         ) from None
-    lines = text.splitlines()
+    # Lines end at "\n" only (and a "\r" before it is dropped): str.splitlines would also end
+    # them at form feeds and other controls, which then could not be reported as symbols.
+    lines = [line.removesuffix("\r") for line in text.split("\n")]
+    if lines[-1] == "":
+        lines.pop()  # the last line's end
     sizes = {}
     for number, key in enumerate(_HEADER, start=1):
         words = lines[number - 1].split() if number <= len(lines) else []
@@ -290,12 +295,12 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
             expected = "'map'" if key == "map" else f"'{key} <value>'"
             raise ValueError(f"{path}, line {number}: expected {expected}, got {got}")
         if key in ("height", "width"):
-            try:
-                sizes[key] = int(words[1])
-            except ValueError:
+            if not re.fullmatch(r"[+-]?[0-9]+", words[1]):
                 raise ValueError(
                     f"{path}, line {number}: {key} must be an integer, got {words[1][:40]!r}"
-                ) from None
+                )
+            # More digits than any size has: out of range (int() would refuse 4,300 digits).
+            sizes[key] = int(words[1]) if len(words[1]) <= 12 else MAX_SIDE + 1
             if not 1 <= sizes[key] <= MAX_SIDE:
                 raise ValueError(f"{path}, line {number}: {key} must be 1 to {MAX_SIDE} (the "
                                  f"largest floor), got {words[1][:40]}")  # fmt: skip
@@ -306,7 +311,7 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
     if len(body) != height:
         raise ValueError(
             f"{path}, line {len(_HEADER) + min(len(body), height) + 1}: the header says "
-            f"{height} rows, the file has {len(body)}"
+            f"{height} {'row' if height == 1 else 'rows'}, the file has {len(body)}"
         )
     known = MOVINGAI_PASSABLE | MOVINGAI_BLOCKED
     endpoint = "P" if packages == "endpoints" else "."
@@ -326,12 +331,16 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
                 f"{''.join(sorted(MOVINGAI_BLOCKED))}"
             )
         rows.append(row.translate(table))
+    # Errors about the whole floor name the map's lines, and its rows as cells count them.
+    first, last = len(_HEADER) + 1, len(_HEADER) + height
+    where = f"{path}, line {first}" if height == 1 else f"{path}, lines {first}-{last}"
+    where += f" (map rows 0-{height - 1})" if height > 1 else " (map row 0)"
     if packages == "endpoints" and not any(MOVINGAI_ENDPOINT in row for row in body):
-        raise ValueError(f"{path}: packages='endpoints' but the map marks no 'E' cell")
+        raise ValueError(f"{where}: packages='endpoints' but the map marks no 'E' cell")
     try:
         return WarehouseGrid.from_layout(rows)
     except ValueError as error:
-        raise ValueError(f"{path}: {error}") from None
+        raise ValueError(f"{where}: {error}") from None
 
 
 def write_movingai(grid: WarehouseGrid, path: str | os.PathLike[str]) -> Path:
