@@ -138,3 +138,13 @@ def test_a_floor_without_shelves_needs_no_maps():
     assert maps.maps == maps.nbytes == 0
     with pytest.raises(ValueError, match="goals must be cell indices"):
         maps.prepare(np.array([grid.rows * grid.cols]))
+
+
+def test_one_distance_is_the_lookups():
+    for grid in (resolve_layout("aisles"), WarehouseGrid(6, 7)):
+        maps = DistanceMaps(grid)
+        free = _free_cells(grid)
+        cells = np.arange(grid.rows * grid.cols)
+        for goal in free[:: max(1, len(free) // 5)].tolist():
+            expected = maps.lookup(cells, np.full_like(cells, goal))
+            assert [maps.distance(c, goal) for c in cells.tolist()] == expected.tolist()

@@ -135,6 +135,17 @@ class DistanceMaps:
             self._table[rows, self._column[cells.reshape(-1)]].astype(np.int64).reshape(cells.shape)
         )
 
+    def distance(self, cell: int, goal: int) -> int:
+        """The fewest moves from one ``cell`` to one ``goal`` (cell indices): what
+        :meth:`lookup` gives, at the cost of a few index operations when the goal's map is
+        kept (a planner asks this thousands of times a step)."""
+        if self._open_floor or not 0 <= goal < self.n_cells or not 0 <= cell < self.n_cells:
+            return int(self.lookup(np.array([cell]), np.array([goal]))[0])
+        row = int(self._row_of_goal[goal])
+        if row < 0:
+            return int(self.lookup(np.array([cell]), np.array([goal]))[0])
+        return int(self._table[row, self._column[cell]])
+
     def _check_goals(self, goals: np.ndarray) -> None:
         if goals.size and (goals.min() < 0 or goals.max() >= self.n_cells):
             raise ValueError(f"goals must be cell indices 0..{self.n_cells - 1} of this floor")

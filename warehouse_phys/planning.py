@@ -258,8 +258,7 @@ class PIBT:
         """Robot ``robot``'s distance from ``cell`` to its goal, on the same maps as its
         candidates."""
         maps = self.distances if self._plain[robot] else self._around
-        goal = self._goal_list[robot]
-        return int(maps.lookup(np.array([cell]), np.array([goal]))[0])
+        return maps.distance(cell, self._goal_list[robot])
 
     def _swap_partner(
         self, i: int, here: list[int], ranked: list[int], plan: list[int], occupied_now: list[int]
