@@ -1,6 +1,7 @@
 """The warehouse layout presets and their registered environments."""
 
 import ast
+import os
 from pathlib import Path
 
 import gymnasium as gym
@@ -214,6 +215,15 @@ def test_missing_binary_and_folder_maps_are_refused(tmp_path):
     ):
         with pytest.raises(ValueError, match=message):
             layouts_module.read_movingai(path)
+    pipe = tmp_path / "pipe.map"
+    os.mkfifo(pipe)
+    with pytest.raises(ValueError, match=r"pipe\.map: not a regular file"):
+        layouts_module.read_movingai(pipe)
+    with pytest.raises(ValueError, match="a path with a NUL character"):
+        layouts_module.read_movingai(str(tmp_path / "a\0b.map"))
+    with pytest.raises(ValueError, match=r"a\\nb\.map': no such map file") as error:
+        layouts_module.read_movingai(tmp_path / "a\nb.map")
+    assert "\n" not in str(error.value)
     junk = tmp_path / "junk.map"
     junk.write_bytes(b"type octile\n\x89PNG\x00\xff")
     with pytest.raises(ValueError, match="line 2, column 1: byte 0x89 is not ASCII text"):

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import re
+import stat
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -250,26 +251,38 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
     :meth:`~warehouse_phys.grid.WarehouseGrid.from_layout` does for rows without ``S``.
 
     Raises:
-        ValueError: one line naming the file (and the line) for a file that is missing,
-            unreadable, binary or too large, a bad header, rows of the wrong number or
+        ValueError: one line naming the file (quoted if its name holds a control character)
+            and the line, or the map's lines for faults of the whole floor, for a path that
+            is missing, a folder, a pipe or a device, a file that is unreadable, binary or
+            too large, a bad header, rows of the wrong number or
             length, an unknown symbol, no free cell, no endpoint with
             ``packages="endpoints"``, or an unknown ``packages``.
     """
     if packages not in ("all", "endpoints"):
         raise ValueError(f"packages must be 'all' or 'endpoints', got {packages!r}")
     path = Path(path)
+    # The file's name as messages give it: quoted if it holds a line end or another control.
+    name = str(path) if str(path).isprintable() else repr(str(path))
+    if "\0" in str(path):
+        raise ValueError(f"{name}: a path with a NUL character, not a map file")
     try:
-        with path.open("rb") as file:
-            data = file.read(MAX_MAP_BYTES + 1)
+        mode = path.stat().st_mode
+        # A pipe or a device: opening a pipe waits for a writer, a device may never end.
+        special = not stat.S_ISREG(mode) and not stat.S_ISDIR(mode)
+        if not special:
+            with path.open("rb") as file:
+                data = file.read(MAX_MAP_BYTES + 1)
     except FileNotFoundError:
-        raise ValueError(f"{path}: no such map file") from None
+        raise ValueError(f"{name}: no such map file") from None
     except IsADirectoryError:
-        raise ValueError(f"{path}: a folder, not a map file") from None
+        raise ValueError(f"{name}: a folder, not a map file") from None
     except OSError as error:
-        raise ValueError(f"{path}: cannot read the map: {error.strerror or error}") from None
+        raise ValueError(f"{name}: cannot read the map: {error.strerror or error}") from None
+    if special:
+        raise ValueError(f"{name}: not a regular file (a pipe or a device), not a map file")
     if len(data) > MAX_MAP_BYTES:
         raise ValueError(
-            f"{path}: larger than any map of at most {MAX_SIDE} x {MAX_SIDE} cells "
+            f"{name}: larger than any map of at most {MAX_SIDE} x {MAX_SIDE} cells "
             f"({MAX_MAP_BYTES:,} bytes)"
         )
     data = data.removeprefix(b"\xef\xbb\xbf")  # a UTF-8 byte order mark, as some editors add
@@ -279,7 +292,7 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
         line = data[: error.start].count(b"\n") + 1
         column = error.start - (data.rfind(b"\n", 0, error.start) + 1) + 1
         raise ValueError(
-            f"{path}, line {line}, column {column}: byte {data[error.start]:#04x} is not ASCII "
+            f"{name}, line {line}, column {column}: byte {data[error.start]:#04x} is not ASCII "
             "text; not a MovingAI map"
         ) from None
     # Lines end at "\n" only (and a "\r" before it is dropped): str.splitlines would also end
@@ -293,16 +306,16 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
         if not words or words[0] != key or len(words) != (1 if key == "map" else 2):
             got = repr(lines[number - 1][:40]) if number <= len(lines) else "the end of the file"
             expected = "'map'" if key == "map" else f"'{key} <value>'"
-            raise ValueError(f"{path}, line {number}: expected {expected}, got {got}")
+            raise ValueError(f"{name}, line {number}: expected {expected}, got {got}")
         if key in ("height", "width"):
             if not re.fullmatch(r"[+-]?[0-9]+", words[1]):
                 raise ValueError(
-                    f"{path}, line {number}: {key} must be an integer, got {words[1][:40]!r}"
+                    f"{name}, line {number}: {key} must be an integer, got {words[1][:40]!r}"
                 )
             # More digits than any size has: out of range (int() would refuse 4,300 digits).
             sizes[key] = int(words[1]) if len(words[1]) <= 12 else MAX_SIDE + 1
             if not 1 <= sizes[key] <= MAX_SIDE:
-                raise ValueError(f"{path}, line {number}: {key} must be 1 to {MAX_SIDE} (the "
+                raise ValueError(f"{name}, line {number}: {key} must be 1 to {MAX_SIDE} (the "
                                  f"largest floor), got {words[1][:40]}")  # fmt: skip
     height, width = sizes["height"], sizes["width"]
     body = lines[len(_HEADER) :]
@@ -310,7 +323,7 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
         body.pop()  # blank lines at the end
     if len(body) != height:
         raise ValueError(
-            f"{path}, line {len(_HEADER) + min(len(body), height) + 1}: the header says "
+            f"{name}, line {len(_HEADER) + min(len(body), height) + 1}: the header says "
             f"{height} {'row' if height == 1 else 'rows'}, the file has {len(body)}"
         )
     known = MOVINGAI_PASSABLE | MOVINGAI_BLOCKED
@@ -321,19 +334,19 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
     for number, row in enumerate(body, start=len(_HEADER) + 1):
         if len(row) != width:
             raise ValueError(
-                f"{path}, line {number}: a row of {len(row)} symbols; the header says {width}"
+                f"{name}, line {number}: a row of {len(row)} symbols; the header says {width}"
             )
         if not set(row) <= known:
             column = next(i for i, symbol in enumerate(row) if symbol not in known)
             raise ValueError(
-                f"{path}, line {number}, column {column + 1}: unknown symbol {row[column]!r}; "
+                f"{name}, line {number}, column {column + 1}: unknown symbol {row[column]!r}; "
                 f"passable {''.join(sorted(MOVINGAI_PASSABLE))}, blocked "
                 f"{''.join(sorted(MOVINGAI_BLOCKED))}"
             )
         rows.append(row.translate(table))
     # Errors about the whole floor name the map's lines, and its rows as cells count them.
     first, last = len(_HEADER) + 1, len(_HEADER) + height
-    where = f"{path}, line {first}" if height == 1 else f"{path}, lines {first}-{last}"
+    where = f"{name}, line {first}" if height == 1 else f"{name}, lines {first}-{last}"
     where += f" (map rows 0-{height - 1})" if height > 1 else " (map row 0)"
     if packages == "endpoints" and not any(MOVINGAI_ENDPOINT in row for row in body):
         raise ValueError(f"{where}: packages='endpoints' but the map marks no 'E' cell")
