@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 import warehouse_phys
 from warehouse_phys import layouts as layouts_module
+from warehouse_phys.atomic import temporary_files
 from warehouse_phys.grid import WarehouseGrid
 from warehouse_phys.layouts import (
     PRESETS,
@@ -376,3 +377,15 @@ def test_every_environment_takes_a_map_file(tmp_path):
     robots = fleet.parallel_env(num_robots=2, layout=str(path), starts="random")
     robots.reset(seed=0)
     assert not np.isin([0, 5], robots.robot_cells[:, 0] * 4 + robots.robot_cells[:, 1]).any()
+
+
+def test_maps_are_written_atomically(tmp_path):
+    path = tmp_path / "floor.map"
+    layouts_module.write_movingai(WarehouseGrid.from_layout(["..", ".#"]), path)
+    layouts_module.write_movingai(WarehouseGrid.from_layout(["...", "#.."]), path)
+    assert path.read_text() == "type octile\nheight 2\nwidth 3\nmap\n...\n@..\n"
+    (tmp_path / "taken.map").mkdir()
+    with pytest.raises(IsADirectoryError):
+        layouts_module.write_movingai(WarehouseGrid(2, 2), tmp_path / "taken.map")
+    assert temporary_files(tmp_path, "floor.map") == []
+    assert temporary_files(tmp_path, "taken.map") == []
