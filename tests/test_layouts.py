@@ -304,6 +304,8 @@ def test_the_generator_gives_the_sizes_and_counts_of_its_parameters(sizes, shape
         ({"block_length": 2.5}, TypeError, "block_length must be an integer"),
         ({"margin_cols": -1}, ValueError, "margin_cols must be at least 0"),
         ({"shelf_rows": 5000}, ValueError, "the largest floor"),
+        ({"shelf_rows": 1, "margin_rows": 0}, ValueError, "margin_rows must be at least 1 when"),
+        ({"blocks_per_row": 1, "margin_cols": 0}, ValueError, "margin_cols must be at least 1"),
     ],
 )
 def test_the_generator_refuses_bad_sizes_by_name(kwargs, error, message):

@@ -180,12 +180,13 @@ def warehouse(
     columns between blocks, ``aisle_width`` free rows between shelf rows, and free
     margins of ``margin_rows`` rows above and below and ``margin_cols`` columns left and
     right. No start is marked (a fleet draws its starts) and every free cell may hold a
-    package. The defaults give the classic 33 x 46 floor of ``kiva-33-46.map``.
+    package; the free cells are always connected. The defaults give the classic 33 x 46
+    floor of ``kiva-33-46.map``.
 
     Raises:
-        TypeError: if an argument is not an integer.
-        ValueError: naming the argument, if one is out of range or the floor would exceed
-            the largest floor.
+        TypeError: naming the argument, if one is not an integer.
+        ValueError: naming the argument, if one is out of range, the floor would exceed
+            the largest floor, or the margins would leave shelves walling off the floor.
     """
     sizes = {"shelf_rows": shelf_rows, "blocks_per_row": blocks_per_row,
              "block_length": block_length, "aisle_width": aisle_width, "gap_width": gap_width,
@@ -204,8 +205,16 @@ def warehouse(
             f"the warehouse would be {height} x {width} cells; the largest floor is "
             f"{MAX_SIDE} x {MAX_SIDE}"
         )
-    if height < 2 or width < 2:
-        raise ValueError(f"the warehouse would be {height} x {width} cells; at least 2 x 2")
+    if height < 2:  # one row of shelves: the gaps between blocks are cut off
+        raise ValueError(
+            "margin_rows must be at least 1 when shelf_rows is 1: the warehouse would be a "
+            "single row of shelves"
+        )
+    if blocks_per_row == 1 and margin_cols == 0:  # each row of shelves a wall
+        raise ValueError(
+            "margin_cols must be at least 1 when blocks_per_row is 1: each row of shelves "
+            "would wall off the aisles from one another"
+        )
     free = "." * width
     blocks = ("." * gap_width).join(["#" * block_length] * blocks_per_row)
     shelves = "." * margin_cols + blocks + "." * margin_cols
