@@ -555,7 +555,7 @@ def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(t
     assert "trained 3 robots sharing one table" in result.stdout
     table = result.stdout.split("one package per robot:\n")[1].splitlines()
     assert [line.split()[0] for line in table[:4]] == ["learned", "shortest", "random", "pibt"]
-    assert table[3].startswith("pibt      60/60 packages delivered")
+    assert "0 moves refused by traffic" in table[3]  # the planner's plans are all granted
     folder = tmp_path / "fleet"
     assert sorted(p.name for p in folder.iterdir()) == [
         "episode.gif", "learning_curve.png", "qtable.npz", "summary.json",
