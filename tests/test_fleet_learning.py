@@ -34,10 +34,13 @@ def test_training_is_seeded_and_reproducible_and_learns_to_deliver():
 def test_the_learned_policy_delivers_near_the_shortest_paths():
     env = fleet.parallel_env(num_robots=2)
     result = train_fleet(env, QLearningConfig(episodes=1200, seed=0))
-    learned = evaluate_fleet(env, greedy_fleet_policy(result.q, epsilon=0.0))
-    assert learned.delivered >= 30  # of 40
-    assert 0 <= learned.delay <= 0.1 * learned.shortest_steps
-    assert learned.to_json()["delay"] == learned.delay
+    plain = evaluate_fleet(env, greedy_fleet_policy(result.q, epsilon=0.0, patience=None))
+    assert plain.delivered >= 30  # of 40: the plain greedy policy's standoffs last for ever
+    assert 0 <= plain.delay <= 0.1 * plain.shortest_steps
+    assert plain.to_json()["delay"] == plain.delay
+    learned = evaluate_fleet(env, greedy_fleet_policy(result.q))  # stuck robots walk at random
+    assert learned.delivered == 40
+    assert learned.sum_of_costs < 2 * learned.all_shortest_steps
 
 
 def test_the_shortest_path_policy_takes_shortest_moves_and_waits_when_blocked():

@@ -45,7 +45,10 @@ NEIGHBOUR_MASKS = 16
 TABLE_OBSERVATIONS = ("local", "neighbours")
 #: How often the learned fleet policy acts at random by default (see
 #: :func:`greedy_fleet_policy`).
-FLEET_EVAL_EPSILON = 0.1
+FLEET_EVAL_EPSILON = 0.05
+#: Steps a robot of the learned fleet policy goes without progress before it acts at
+#: random until it makes progress again (see :func:`greedy_fleet_policy`).
+FLEET_PATIENCE = 4
 
 
 def new_fleet_q_table(rows: int, cols: int, observation: str = "local") -> np.ndarray:
@@ -72,6 +75,7 @@ def train_fleet(
     config: QLearningConfig | None = None,
     *,
     on_episode: Callable[[int], None] | None = None,
+    patience: int | None = None,
 ) -> TrainingResult:
     """Train one shared table with every robot an epsilon-greedy Q-learner.
 
@@ -86,7 +90,9 @@ def train_fleet(
     delivered and ``truncated`` whether the time limit came first.
 
     Ties between equal values are broken at random (from the same generator), so
-    robots in the same situation do not all pick the first action.
+    robots in the same situation do not all pick the first action. With
+    ``patience``, a robot that went that many steps without progress acts at random
+    until it makes progress, as in :func:`greedy_fleet_policy`.
 
     Raises:
         ValueError: if ``env`` gives global observations (the table needs the local
@@ -109,19 +115,14 @@ def train_fleet(
     for episode in range(episodes):
         observations, _ = env.reset(seed=config.seed) if episode == 0 else env.reset()
         epsilon, n_steps, total = epsilons[episode], 0, 0.0
+        progress = _Progress(patience)
         cut = False
         while env.agents:
             states = {agent: tuple(obs.tolist()) for agent, obs in observations.items()}
             actions = {}
             for agent in env.agents:
-                if rng.random() < epsilon:
-                    actions[agent] = int(rng.integers(FLEET_ACTIONS))
-                else:
-                    values = q[states[agent]]
-                    best = np.flatnonzero(values == values.max())
-                    actions[agent] = int(
-                        best[rng.integers(len(best))] if len(best) > 1 else best[0]
-                    )
+                stuck = progress.stuck(agent, q, states[agent])
+                actions[agent] = _choose(q[states[agent]], 1.0 if stuck else epsilon, rng)
             observations, rewards, terminations, truncations, _ = env.step(actions)
             for agent, action in actions.items():
                 values = q[states[agent]]
@@ -144,21 +145,40 @@ def train_fleet(
 
 
 def greedy_fleet_policy(
-    q: np.ndarray, *, epsilon: float = FLEET_EVAL_EPSILON, seed: int = 0
+    q: np.ndarray,
+    *,
+    epsilon: float = FLEET_EVAL_EPSILON,
+    patience: int | None = FLEET_PATIENCE,
+    seed: int = 0,
 ) -> FleetPolicy:
-    """Every robot takes the shared table's best action for its own observation (ties
-    broken at random), and with probability ``epsilon`` a uniformly random action.
+    """The learned fleet policy: every robot takes the shared table's best action for its
+    own observation (ties broken at random), with probability ``epsilon`` a uniformly
+    random action, and uniformly random actions while it is stuck.
 
-    The random actions are what breaks a standoff: a deterministic greedy policy in
-    the same joint situation asks for the same refused moves for ever, and robots that
-    see the same thing all decide alike. ``epsilon=0`` gives the plain greedy policy.
-    Draws come from a generator of ``seed``, started afresh at every reset.
+    A robot is *stuck* once it has gone ``patience`` steps without making progress,
+    and stays stuck until it makes progress again. Its progress is the table's own
+    measure of how near it is to its package, the best value of its cell with nobody
+    beside it (:func:`cell_values`): it made progress on a step that raised this above
+    every value it had before in the episode. This is what breaks standoffs. A greedy
+    table policy is deterministic up to its ties: robots in the same joint situation
+    ask for the same refused moves for ever, two robots meeting head-on both wait or
+    both back off and come back, and a robot whose way is walled by a parked robot it
+    no longer sees turns round, sees it again and turns back (the neighbours
+    observation shows only the adjacent cells). A random walk until it gets nearer
+    than it ever was takes a stuck robot out of all of these, while robots that make
+    progress follow the table. ``patience=None`` leaves that out, and with
+    ``epsilon=0`` too this is the plain greedy policy.
+
+    Draws come from a generator of ``seed``, started afresh at every reset, so an
+    evaluation is reproducible.
 
     Raises:
-        ValueError: if ``epsilon`` is not in [0, 1].
+        ValueError: if ``epsilon`` is not in [0, 1] or ``patience`` is below 1.
     """
     if not 0.0 <= epsilon <= 1.0:
         raise ValueError(f"epsilon must be in [0, 1], got {epsilon!r}")
+    if patience is not None and patience < 1:
+        raise ValueError(f"patience must be at least 1 step (or None), got {patience!r}")
     state: dict[str, Any] = {"rng": None}
 
     def policy(
@@ -168,18 +188,53 @@ def greedy_fleet_policy(
     ) -> dict[str, int]:
         if state["rng"] is None or env.steps == 0:
             state["rng"] = np.random.default_rng([seed, 7])
-        rng = state["rng"]
+            state["progress"] = _Progress(patience)
+        rng, progress = state["rng"], state["progress"]
         actions = {}
         for agent, obs in observations.items():
-            values = q[tuple(obs.tolist())]
-            if rng.random() < epsilon:
-                actions[agent] = int(rng.integers(FLEET_ACTIONS))
-                continue
-            best = np.flatnonzero(values == values.max())
-            actions[agent] = int(best[rng.integers(len(best))] if len(best) > 1 else best[0])
+            key = tuple(obs.tolist())
+            stuck = progress.stuck(agent, q, key)
+            actions[agent] = _choose(q[key], 1.0 if stuck else epsilon, rng)
         return actions
 
     return policy
+
+
+def cell_values(q: np.ndarray, observation: tuple[int, ...]) -> np.ndarray:
+    """The action values of a robot's cell and package with nobody beside it: the
+    table's row for the first four numbers of ``observation`` (and, in a neighbours
+    table, the empty mask)."""
+    values = q[observation[:4]]
+    return values[0] if values.ndim > 1 else values
+
+
+class _Progress:
+    """Which robots are stuck: those that went ``patience`` steps without raising the
+    best :func:`cell_values` they reached in the episode (``None``: never stuck)."""
+
+    def __init__(self, patience: int | None) -> None:
+        self.patience = patience
+        self.best: dict[str, float] = {}
+        self.since: dict[str, int] = {}
+
+    def stuck(self, agent: str, q: np.ndarray, observation: tuple[int, ...]) -> bool:
+        """Record the robot's ``observation`` of this step; whether it is stuck now."""
+        if self.patience is None:
+            return False
+        value = float(cell_values(q, observation).max())
+        if value > self.best.get(agent, -np.inf):
+            self.best[agent], self.since[agent] = value, 0
+            return False
+        self.since[agent] += 1
+        return self.since[agent] >= self.patience
+
+
+def _choose(values: np.ndarray, epsilon: float, rng: np.random.Generator) -> int:
+    """Epsilon-greedy over ``values``, ties among the best broken at random."""
+    if epsilon > 0.0 and (epsilon >= 1.0 or rng.random() < epsilon):
+        return int(rng.integers(FLEET_ACTIONS))
+    best = np.flatnonzero(values == values.max())
+    return int(best[rng.integers(len(best))] if len(best) > 1 else best[0])
 
 
 def fleet_table_metadata(
@@ -212,6 +267,7 @@ def fleet_table_metadata(
 __all__ = [
     "FleetEvaluation",
     "FleetPolicy",
+    "cell_values",
     "evaluate_fleet",
     "fleet_table_metadata",
     "greedy_fleet_policy",

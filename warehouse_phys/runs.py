@@ -23,6 +23,7 @@ from warehouse_phys.atomic import atomic_write_text
 from warehouse_phys.fleet import WarehouseFleetEnv, parallel_env
 from warehouse_phys.fleet_learning import (
     FLEET_EVAL_EPSILON,
+    FLEET_PATIENCE,
     FleetEvaluation,
     evaluate_fleet,
     fleet_table_metadata,
@@ -266,6 +267,7 @@ def train_fleet_run(
             "seeds": [EVALUATION_SEEDS.start, EVALUATION_SEEDS.stop],
             "learned": evaluation.to_json(),
             "learned_epsilon": FLEET_EVAL_EPSILON,
+            "learned_patience": FLEET_PATIENCE,
             "shortest_path": baseline.to_json(),
             "random": comparison["random"].to_json(),
             "pibt": comparison["pibt"].to_json(),
