@@ -5,14 +5,17 @@ import pytest
 
 from warehouse_phys import fleet
 from warehouse_phys.fleet_learning import (
+    cell_values,
     evaluate_fleet,
     fleet_table_metadata,
     greedy_fleet_policy,
+    new_fleet_q_table,
     random_fleet_policy,
     record_fleet_episode,
     sample_fleet_gaps,
     shortest_path_policy,
     train_fleet,
+    training_steps,
 )
 from warehouse_phys.qlearning import QLearningConfig, QTableError, load_q_table, save_q_table
 from warehouse_phys.traffic import WAIT
@@ -108,10 +111,42 @@ def test_a_neighbours_table_sees_adjacent_robots_and_round_trips(tmp_path):
     assert loaded_metadata["observation"] == "neighbours"
     with pytest.raises(QTableError, match=r"expected \(4, 5, 4, 5, 16, 5\)"):
         save_q_table(tmp_path / "bad.npz", result.q[..., 0, :], metadata)
+    with pytest.raises(QTableError, match="3-robot fleet's table over 'local' obs"):
+        save_q_table(tmp_path / "bad.npz", result.q, {**metadata, "robots": 3,
+                                                       "observation": "local"})  # fmt: skip
     with pytest.raises(QTableError, match="'observation' must be"):
         save_q_table(tmp_path / "bad.npz", result.q, {**metadata, "observation": "global"})
     with pytest.raises(ValueError, match="needs observation='local' or 'neighbours'"):
         train_fleet(fleet.parallel_env(num_robots=2, observation="global"))
+
+
+def test_a_stuck_robot_walks_at_random_until_it_makes_progress():
+    env = fleet.parallel_env(num_robots=2, grid_rows=2, grid_cols=3, observation="neighbours")
+    waits = new_fleet_q_table(2, 3, "neighbours")
+    waits[..., WAIT] = 1.0  # a table that waits everywhere: no cell is nearer than another
+    plain = evaluate_fleet(env, greedy_fleet_policy(waits, epsilon=0.0, patience=None))
+    assert (plain.delivered, plain.waits) == (0, 20 * 2 * env.max_cycles)
+    escaping = greedy_fleet_policy(waits, epsilon=0.0, patience=3)
+    observations, infos = env.reset(seed=0)
+    for _ in range(3):  # three steps without progress: still waiting
+        assert set(escaping(env, observations, infos).values()) == {WAIT}
+        observations, _, _, _, infos = env.step(dict.fromkeys(env.agents, WAIT))
+    assert evaluate_fleet(env, escaping).delivered == 40  # random walks find every package
+    assert cell_values(waits, (0, 1, 1, 2, 5)).tolist() == [0, 0, 0, 0, 1]
+    with pytest.raises(ValueError, match="patience must be at least 1"):
+        greedy_fleet_policy(waits, patience=0)
+
+
+def test_training_episodes_are_cut_at_max_steps():
+    env = fleet.parallel_env(num_robots=2, layout="aisles", observation="neighbours")
+    assert env.max_cycles == 1200
+    assert training_steps(7, 9) == 200
+    result = train_fleet(env, QLearningConfig(episodes=3, seed=0), max_steps=20)
+    assert result.steps.tolist() == [20, 20, 20]
+    assert result.truncated.all()
+    assert training_steps(40, 30) == 280  # four crossings of a large floor
+    with pytest.raises(ValueError, match="max_steps must be at least 1"):
+        train_fleet(env, QLearningConfig(episodes=1), max_steps=0)
 
 
 def test_the_learned_policy_breaks_standoffs_with_its_random_actions():

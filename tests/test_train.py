@@ -595,6 +595,27 @@ def test_a_physics_fleet_run_writes_its_files(tmp_path, capsys):
     assert set(summary["evaluation"]) >= {"learned", "shortest_path", "random", "pibt"}
 
 
+def test_a_neighbours_fleet_table_is_written_read_back_and_evaluated(tmp_path, capsys):
+    folder = tmp_path / "fleet"
+    args = ["--robots", "2", "--env", "grid", "--rows", "2", "--cols", "3", "--episodes", "30",
+            "--observation", "neighbours", "--out", str(folder), "--quiet", "--no-gif"]  # fmt: skip
+    assert train_cli.main(args) == 0
+    q, metadata = load_q_table(folder / "qtable.npz")
+    assert q.shape == (2, 3, 2, 3, 16, 5)
+    assert (metadata["robots"], metadata["observation"]) == (2, "neighbours")
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["training"]["max_steps"] == summary["max_cycles"]  # below 200 steps
+    assert summary["evaluation"]["learned_patience"] >= 1
+    capsys.readouterr()
+    assert train_cli.main(["--eval", str(folder / "qtable.npz")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "(2 robots, warehouse-robot-v0, 2x3, 30 episodes" in lines[0]
+    assert [line.split()[0] for line in lines[1:5]] == ["learned", "shortest", "random", "pibt"]
+    with pytest.raises(SystemExit):
+        train_cli.main(["--help"])
+    assert "--observation {local,neighbours}" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [

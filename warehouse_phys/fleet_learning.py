@@ -46,6 +46,9 @@ TABLE_OBSERVATIONS = ("local", "neighbours")
 #: How often the learned fleet policy acts at random by default (see
 #: :func:`greedy_fleet_policy`).
 FLEET_EVAL_EPSILON = 0.05
+#: Joint steps a training episode lasts at most on floors up to 25 cells across (the
+#: default floor's time limit; see :func:`training_steps`).
+FLEET_TRAINING_STEPS = 200
 #: Steps a robot of the learned fleet policy goes without progress before it acts at
 #: random until it makes progress again (see :func:`greedy_fleet_policy`).
 FLEET_PATIENCE = 4
@@ -70,12 +73,19 @@ def new_fleet_q_table(rows: int, cols: int, observation: str = "local") -> np.nd
     return np.zeros((rows, cols, rows, cols, *masks, FLEET_ACTIONS), dtype=np.float64)
 
 
+def training_steps(rows: int, cols: int) -> int:
+    """The joint steps a training episode of :func:`train_fleet` lasts at most on a
+    ``rows`` x ``cols`` floor: :data:`FLEET_TRAINING_STEPS`, or four crossings of a
+    larger floor (``4 * (rows + cols)``)."""
+    return max(FLEET_TRAINING_STEPS, 4 * (rows + cols))
+
+
 def train_fleet(
     env: WarehouseFleetEnv,
     config: QLearningConfig | None = None,
     *,
     on_episode: Callable[[int], None] | None = None,
-    patience: int | None = None,
+    max_steps: int | None = None,
 ) -> TrainingResult:
     """Train one shared table with every robot an epsilon-greedy Q-learner.
 
@@ -90,13 +100,18 @@ def train_fleet(
     delivered and ``truncated`` whether the time limit came first.
 
     Ties between equal values are broken at random (from the same generator), so
-    robots in the same situation do not all pick the first action. With
-    ``patience``, a robot that went that many steps without progress acts at random
-    until it makes progress, as in :func:`greedy_fleet_policy`.
+    robots in the same situation do not all pick the first action.
+
+    A training episode ends at the fleet's time limit or after ``max_steps`` joint
+    steps, whichever comes first (the next one starts with a reset; the table
+    bootstraps from the last observations as at any truncation). By default
+    ``max_steps`` is :func:`training_steps` of the floor: the early episodes, played
+    almost at random, would otherwise run to a long time limit (1200 steps on
+    ``aisles``) and take most of the training time while teaching little.
 
     Raises:
         ValueError: if ``env`` gives global observations (the table needs the local
-            or the neighbours ones).
+            or the neighbours ones), or ``max_steps`` is below 1.
     """
     if env.observation not in TABLE_OBSERVATIONS:
         raise ValueError("a shared table needs observation='local' or 'neighbours'")
@@ -104,6 +119,10 @@ def train_fleet(
     rows, cols = env.grid.rows, env.grid.cols
     check_training_memory(rows, cols, config.episodes)
     q = new_fleet_q_table(rows, cols, env.observation)
+    if max_steps is None:
+        max_steps = training_steps(rows, cols)
+    elif max_steps < 1:
+        raise ValueError(f"max_steps must be at least 1, got {max_steps!r}")
     rng = agent_rng(config.seed)
     alpha, gamma, episodes = config.alpha, config.gamma, config.episodes
     steps = np.zeros(episodes, dtype=np.int64)
@@ -115,14 +134,15 @@ def train_fleet(
     for episode in range(episodes):
         observations, _ = env.reset(seed=config.seed) if episode == 0 else env.reset()
         epsilon, n_steps, total = epsilons[episode], 0, 0.0
-        progress = _Progress(patience)
         cut = False
         while env.agents:
+            if n_steps >= max_steps:
+                cut = True
+                break
             states = {agent: tuple(obs.tolist()) for agent, obs in observations.items()}
             actions = {}
             for agent in env.agents:
-                stuck = progress.stuck(agent, q, states[agent])
-                actions[agent] = _choose(q[states[agent]], 1.0 if stuck else epsilon, rng)
+                actions[agent] = _choose(q[states[agent]], epsilon, rng)
             observations, rewards, terminations, truncations, _ = env.step(actions)
             for agent, action in actions.items():
                 values = q[states[agent]]
@@ -277,4 +297,5 @@ __all__ = [
     "sample_fleet_gaps",
     "shortest_path_policy",
     "train_fleet",
+    "training_steps",
 ]

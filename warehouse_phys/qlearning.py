@@ -95,6 +95,16 @@ def table_actions(metadata: dict[str, Any]) -> int:
     return 5 if metadata.get(_FLEET_FIELD, 1) > 1 else 4
 
 
+def table_kind(metadata: dict[str, Any]) -> str:
+    """Which table ``metadata`` describes, in words: a single robot's, or a fleet's with
+    its observation."""
+    robots = metadata.get(_FLEET_FIELD, 1)
+    if robots == 1:
+        return "a single robot's table"
+    observation = metadata.get(_OBSERVATION_FIELD, "local")
+    return f"a {robots}-robot fleet's table over {observation!r} observations"
+
+
 def table_tail(metadata: dict[str, Any]) -> tuple[int, ...]:
     """The axes of the table ``metadata`` describes after ``(R, C, R, C)``: the actions,
     after the 16 neighbour masks for a fleet's ``"neighbours"`` table."""
@@ -522,6 +532,7 @@ def save_q_table(path: str | os.PathLike[str], q: np.ndarray, metadata: dict[str
         metadata["grid_cols"],
         where="table",
         tail=table_tail(metadata),
+        kind=table_kind(metadata),
     )
     text = json.dumps(metadata, sort_keys=True)
     return atomic_write(
@@ -576,7 +587,13 @@ def load_q_table(
                         f"{path}: a table for a {grid[0]}x{grid[1]} grid needs "
                         f"{needed / 2**30:.1f} GiB, more than the {budget:g} GiB a table may take"
                     )
-                q = _read_table(archive, *grid, where=str(path), tail=table_tail(metadata))
+                q = _read_table(
+                    archive,
+                    *grid,
+                    where=str(path),
+                    tail=table_tail(metadata),
+                    kind=table_kind(metadata),
+                )
     except ArchiveError as error:
         raise QTableError(f"{path}: {error}") from None
     except OSError as error:
@@ -600,7 +617,13 @@ def _read_metadata(archive: NpzReader, *, where: str) -> dict[str, Any]:
 
 
 def _read_table(
-    archive: NpzReader, rows: int, cols: int, *, where: str, tail: tuple[int, ...] = (4,)
+    archive: NpzReader,
+    rows: int,
+    cols: int,
+    *,
+    where: str,
+    tail: tuple[int, ...] = (4,),
+    kind: str = "",
 ) -> np.ndarray:
     """The table of an archive for a ``rows`` x ``cols`` grid: real floats, read within
     the size such a table has, as float64, finite."""
@@ -612,7 +635,7 @@ def _read_table(
     if header.shape != expected:
         raise QTableError(
             f"{where}: table shape {header.shape} does not match its {rows}x{cols} grid "
-            f"(expected {expected})"
+            f"(expected {expected}{', ' + kind if kind else ''})"
         )
     with np.errstate(over="ignore"):  # a long double too large for float64 becomes inf: refused
         q = to_array(header, data).astype(np.float64)
@@ -708,7 +731,13 @@ def _short(value: Any) -> str:
 
 
 def _check_table(
-    q: np.ndarray, rows: int, cols: int, *, where: str, tail: tuple[int, ...] = (4,)
+    q: np.ndarray,
+    rows: int,
+    cols: int,
+    *,
+    where: str,
+    tail: tuple[int, ...] = (4,),
+    kind: str = "",
 ) -> None:
     error = QTableError
     expected = (rows, cols, rows, cols, *tail)
@@ -717,7 +746,7 @@ def _check_table(
     if q.shape != expected:
         raise error(
             f"{where}: table shape {q.shape} does not match its {rows}x{cols} grid "
-            f"(expected {expected})"
+            f"(expected {expected}{', ' + kind if kind else ''})"
         )
     if not np.isfinite(q).all():
         raise error(f"{where}: table holds NaN or infinite values")

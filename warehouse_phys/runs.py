@@ -32,6 +32,7 @@ from warehouse_phys.fleet_learning import (
     record_fleet_episode,
     shortest_path_policy,
     train_fleet,
+    training_steps,
 )
 from warehouse_phys.grid import WarehouseGrid
 from warehouse_phys.layouts import PRESETS, preset_ids, resolve_layout, suggested_time_limit
@@ -258,6 +259,7 @@ def train_fleet_run(
         "training_seconds": round(seconds, 4),
         "training": {
             "episodes": len(result.steps),
+            "max_steps": min(env.max_cycles, training_steps(env.grid.rows, env.grid.cols)),
             "all_delivered": int(result.reached_target.sum()),
             "truncated": int(result.truncated.sum()),
             "mean_steps_last_100": float(result.steps[last].mean()),

@@ -15,12 +15,19 @@ every target and printed as a table.
     python -m warehouse_phys.train --robots 3
 
 With ``--robots N`` (N > 1) a fleet of N robots on one floor trains independent
-Q-learners that share one table over their local observations (five actions:
-the moves and WAIT; see :mod:`warehouse_phys.fleet_learning`); the run folder
-holds the same four files, the GIF showing the fleet, and the learned policy
-is evaluated over fixed seeds beside a shortest-path policy that waits when
-blocked: packages delivered, steps against the shortest paths, refused moves
-and episodes stuck at the time limit.
+Q-learners that share one table over their local observations, or with
+``--observation neighbours`` over those and which adjacent cells hold a robot
+(five actions: the moves and WAIT; see :mod:`warehouse_phys.fleet_learning`);
+training episodes last at most 200 joint steps on floors up to 25 cells across.
+The run folder holds the same four files, the GIF showing the fleet, and the
+learned policy (greedy, with a random walk for a robot that stops making
+progress) is evaluated over fixed seeds beside a shortest-path policy that waits
+when blocked, a uniformly random policy and the PIBT planner: packages
+delivered, steps against the shortest paths, refused moves and episodes stuck at
+the time limit, with a line for each policy that delivers fewer packages than
+the shortest-path policy or random.
+
+    python -m warehouse_phys.train --env grid --robots 4 --observation neighbours
 
 Bad arguments and unusable tables end with exit status 2 and a one-line
 message, before anything is written. The algorithm lives in
@@ -118,7 +125,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--episodes",
         type=bounded_int(1, "a positive number of episodes"),
-        help=f"training episodes (default {defaults.episodes}, or the layout preset's own)",
+        help=f"training episodes (default {defaults.episodes}, or the layout preset's own; "
+        f"{FLEET_EPISODES} for a fleet)",
     )
     parser.add_argument(
         "--seed",
@@ -136,8 +144,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--observation",
         choices=("local", "neighbours"),
         default=None,
-        help="a fleet's shared table reads each robot's local view (default), or that and "
-        "which adjacent cells hold a robot ('neighbours': a table 16 times larger)",
+        help="with --robots 2 or more: a fleet's shared table reads each robot's own cell "
+        "and package (local, the default), or those and which adjacent cells hold a robot "
+        "(neighbours: a table 16 times larger, with which robots learn to step aside)",
     )
     parser.add_argument(
         "--alpha",
@@ -265,7 +274,8 @@ def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
 
 
 def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floor: Floor) -> int:
-    """``--robots N``: a fleet sharing one table, evaluated against the shortest-path policy."""
+    """``--robots N``: a fleet sharing one table, evaluated beside the shortest-path
+    policy, random and the planner."""
     robots = args.robots
     if args.render:
         raise UsageError("--render shows one robot in a window; leave it out with --robots")
@@ -293,7 +303,7 @@ def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floo
             f"trained {robots} robots sharing one table for {config.episodes} episodes on "
             f"{outcome.env_id} in {outcome.seconds:.2f} s; every package delivered in "
             f"{int(result.reached_target.sum())} episodes, {int(result.truncated.sum())} cut at "
-            f"{outcome.max_cycles} steps"
+            f"{outcome.summary['training']['max_steps']} steps"
         )
         print(f"evaluated over {len(EVALUATION_SEEDS)} seeds, one package per robot:")
         print(compare_policies(outcome.comparison))
