@@ -150,8 +150,9 @@ def test_training_episodes_are_cut_at_max_steps():
 
 
 def test_the_learned_policy_breaks_standoffs_with_its_random_actions():
-    env = fleet.parallel_env(num_robots=3, observation="neighbours")
-    result = train_fleet(env, QLearningConfig(episodes=3000, seed=0))
+    # (python -m warehouse_phys.train does the same on the 4x5 floor and aisles: 3000 episodes)
+    env = fleet.parallel_env(num_robots=3, grid_rows=3, grid_cols=4, observation="neighbours")
+    result = train_fleet(env, QLearningConfig(episodes=800, seed=0))
     learned = evaluate_fleet(env, greedy_fleet_policy(result.q), seeds=range(20))
     randomly = evaluate_fleet(env, random_fleet_policy(0), seeds=range(20))
     shortest = evaluate_fleet(env, shortest_path_policy, seeds=range(20))
