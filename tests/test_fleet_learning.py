@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from warehouse_phys import fleet
+from warehouse_phys import fleet, fleet_learning
 from warehouse_phys.fleet_learning import (
     cell_values,
     evaluate_fleet,
@@ -135,6 +135,20 @@ def test_a_stuck_robot_walks_at_random_until_it_makes_progress():
     assert cell_values(waits, (0, 1, 1, 2, 5)).tolist() == [0, 0, 0, 0, 1]
     with pytest.raises(ValueError, match="patience must be at least 1"):
         greedy_fleet_policy(waits, patience=0)
+
+
+def test_a_robot_stuck_again_walks_longer_until_it_makes_progress():
+    q = new_fleet_q_table(2, 3, "neighbours")
+    q[1, 1, 1, 2, 0] = 1.0  # (1, 1) is nearer its package than (0, 0)
+    progress, rng = fleet_learning._Progress(patience=2), np.random.default_rng(0)
+    walks = [progress.stuck("robot_0", q, (0, 0, 1, 2, 0), rng) for _ in range(400)]
+    runs = [len(run) for run in "".join("W" if w else "." for w in walks).split(".") if run]
+    assert walks[:3] == [False, False, True]  # the second step without progress walks
+    assert all(1 <= run <= 2 * 2**k for k, run in enumerate(runs))  # windows 2, 4, 8, ...
+    assert max(runs) > 8
+    assert walks.count(False) == 1 + len(runs)  # one greedy step before each walk
+    assert not progress.stuck("robot_0", q, (1, 1, 1, 2, 0), rng)  # progress ends it
+    assert not progress.stuck("robot_0", q, (0, 0, 0, 2, 0), rng)  # so does a new package
 
 
 def test_training_episodes_are_cut_at_max_steps():

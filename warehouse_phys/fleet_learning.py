@@ -49,9 +49,11 @@ FLEET_EVAL_EPSILON = 0.05
 #: Joint steps a training episode lasts at most on floors up to 25 cells across (the
 #: default floor's time limit; see :func:`training_steps`).
 FLEET_TRAINING_STEPS = 200
-#: Steps a robot of the learned fleet policy goes without progress before it acts at
-#: random until it makes progress again (see :func:`greedy_fleet_policy`).
+#: Steps a robot of the learned fleet policy goes without progress before it walks at
+#: random, and its first random walk's longest length (see :func:`greedy_fleet_policy`).
 FLEET_PATIENCE = 4
+#: The longest random walk of a stuck robot of the learned fleet policy [steps].
+BACKOFF_WINDOW_CAP = 1024
 
 
 def new_fleet_q_table(rows: int, cols: int, observation: str = "local") -> np.ndarray:
@@ -173,21 +175,26 @@ def greedy_fleet_policy(
 ) -> FleetPolicy:
     """The learned fleet policy: every robot takes the shared table's best action for its
     own observation (ties broken at random), with probability ``epsilon`` a uniformly
-    random action, and uniformly random actions while it is stuck.
+    random action, and uniformly random actions for a while when it is stuck.
 
-    A robot is *stuck* once it has gone ``patience`` steps without making progress,
-    and stays stuck until it makes progress again. Its progress is the table's own
-    measure of how near it is to its package, the best value of its cell with nobody
-    beside it (:func:`cell_values`): it made progress on a step that raised this above
-    every value it had before in the episode. This is what breaks standoffs. A greedy
-    table policy is deterministic up to its ties: robots in the same joint situation
-    ask for the same refused moves for ever, two robots meeting head-on both wait or
-    both back off and come back, and a robot whose way is walled by a parked robot it
-    no longer sees turns round, sees it again and turns back (the neighbours
-    observation shows only the adjacent cells). A random walk until it gets nearer
-    than it ever was takes a stuck robot out of all of these, while robots that make
-    progress follow the table. ``patience=None`` leaves that out, and with
-    ``epsilon=0`` too this is the plain greedy policy.
+    A robot is *stuck* once it has gone ``patience`` steps without making progress.
+    Its progress is the table's own measure of how near it is to its package, the best
+    value of its cell with nobody beside it (:func:`cell_values`): it made progress on
+    a step that raised this above every value it had before for the same package.
+    A stuck robot walks at random for 1 to ``w`` steps, drawn uniformly, then follows
+    the table again; ``w`` starts at ``patience`` and doubles each time the robot is
+    stuck again without progress in between (binary exponential backoff, as Ethernet
+    resolves collisions; at most :data:`BACKOFF_WINDOW_CAP`), and progress resets it.
+
+    This is what breaks standoffs. A greedy table policy is deterministic up to its
+    ties: robots in the same joint situation ask for the same refused moves for ever,
+    two robots meeting head-on both wait or both back off and come back, and a robot
+    whose way is walled by a parked robot it no longer sees turns round, sees it again
+    and turns back (the neighbours observation shows only the adjacent cells). Short
+    random walks of different lengths untangle the first two; longer and longer ones
+    take a robot round the third, while robots that make progress follow the table.
+    ``patience=None`` leaves that out, and with ``epsilon=0`` too this is the plain
+    greedy policy.
 
     Draws come from a generator of ``seed``, started afresh at every reset, so an
     evaluation is reproducible.
@@ -213,7 +220,7 @@ def greedy_fleet_policy(
         actions = {}
         for agent, obs in observations.items():
             key = tuple(obs.tolist())
-            stuck = progress.stuck(agent, q, key)
+            stuck = progress.stuck(agent, q, key, rng)
             actions[agent] = _choose(q[key], 1.0 if stuck else epsilon, rng)
         return actions
 
@@ -229,24 +236,35 @@ def cell_values(q: np.ndarray, observation: tuple[int, ...]) -> np.ndarray:
 
 
 class _Progress:
-    """Which robots are stuck: those that went ``patience`` steps without raising the
-    best :func:`cell_values` they reached in the episode (``None``: never stuck)."""
+    """Which robots are stuck, and for how long they walk at random (see
+    :func:`greedy_fleet_policy`); ``patience=None``: never stuck."""
 
     def __init__(self, patience: int | None) -> None:
         self.patience = patience
-        self.best: dict[str, float] = {}
-        self.since: dict[str, int] = {}
+        # Per robot: its package, the best cell value it reached for it, the steps since
+        # then outside random walks, the random steps left and the backoff window.
+        self.robots: dict[str, list[Any]] = {}
 
-    def stuck(self, agent: str, q: np.ndarray, observation: tuple[int, ...]) -> bool:
-        """Record the robot's ``observation`` of this step; whether it is stuck now."""
+    def stuck(
+        self, agent: str, q: np.ndarray, observation: tuple[int, ...], rng: np.random.Generator
+    ) -> bool:
+        """Record the robot's ``observation`` of this step; whether it walks at random now."""
         if self.patience is None:
             return False
         value = float(cell_values(q, observation).max())
-        if value > self.best.get(agent, -np.inf):
-            self.best[agent], self.since[agent] = value, 0
+        robot = self.robots.get(agent)
+        if robot is None or value > robot[1] or robot[0] != observation[2:4]:
+            self.robots[agent] = [observation[2:4], value, 0, 0, self.patience]
             return False
-        self.since[agent] += 1
-        return self.since[agent] >= self.patience
+        if robot[3] > 0:  # walking at random
+            robot[3] -= 1
+            return True
+        robot[2] += 1
+        if robot[2] < self.patience:
+            return False
+        robot[2], robot[3] = 0, int(rng.integers(robot[4]))  # this step and 0..window-1 more
+        robot[4] = min(2 * robot[4], BACKOFF_WINDOW_CAP)
+        return True
 
 
 def _choose(values: np.ndarray, epsilon: float, rng: np.random.Generator) -> int:
