@@ -5,13 +5,17 @@ independent Q-learner, and all of them share one table over the local
 observation ``[row, col, package_row, package_col]``: shape ``(R, C, R, C, 5)``,
 the four moves and WAIT; or, with ``observation="neighbours"``, over the same
 four numbers and the mask of adjacent robots: ``(R, C, R, C, 16, 5)``, so that a
-robot can learn to step aside. How well a policy delivers, and the baseline policies,
-live in :mod:`warehouse_phys.fleet_evaluation` (re-exported here).
+robot can learn to step aside. The learned policy (:func:`greedy_fleet_policy`)
+follows the table and sends a robot that stops making progress on random walks of
+growing length, which is what untangles robots that a table alone leaves in a
+standoff. How well a policy delivers, and the baseline policies, live in
+:mod:`warehouse_phys.fleet_evaluation` (re-exported here).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -235,15 +239,28 @@ def cell_values(q: np.ndarray, observation: tuple[int, ...]) -> np.ndarray:
     return values[0] if values.ndim > 1 else values
 
 
+@dataclass(slots=True)
+class _Robot:
+    """What :class:`_Progress` remembers of one robot."""
+
+    package: tuple[int, ...]
+    #: The best cell value it reached for this package.
+    best: float
+    #: Steps since then, outside random walks.
+    idle: int = 0
+    #: Random steps left of its walk.
+    walk: int = 0
+    #: Its next walk's longest length.
+    window: int = 1
+
+
 class _Progress:
     """Which robots are stuck, and for how long they walk at random (see
     :func:`greedy_fleet_policy`); ``patience=None``: never stuck."""
 
     def __init__(self, patience: int | None) -> None:
         self.patience = patience
-        # Per robot: its package, the best cell value it reached for it, the steps since
-        # then outside random walks, the random steps left and the backoff window.
-        self.robots: dict[str, list[Any]] = {}
+        self.robots: dict[str, _Robot] = {}
 
     def stuck(
         self, agent: str, q: np.ndarray, observation: tuple[int, ...], rng: np.random.Generator
@@ -253,17 +270,17 @@ class _Progress:
             return False
         value = float(cell_values(q, observation).max())
         robot = self.robots.get(agent)
-        if robot is None or value > robot[1] or robot[0] != observation[2:4]:
-            self.robots[agent] = [observation[2:4], value, 0, 0, self.patience]
+        if robot is None or value > robot.best or robot.package != observation[2:4]:
+            self.robots[agent] = _Robot(observation[2:4], value, window=self.patience)
             return False
-        if robot[3] > 0:  # walking at random
-            robot[3] -= 1
+        if robot.walk > 0:
+            robot.walk -= 1
             return True
-        robot[2] += 1
-        if robot[2] < self.patience:
+        robot.idle += 1
+        if robot.idle < self.patience:
             return False
-        robot[2], robot[3] = 0, int(rng.integers(robot[4]))  # this step and 0..window-1 more
-        robot[4] = min(2 * robot[4], BACKOFF_WINDOW_CAP)
+        robot.idle, robot.walk = 0, int(rng.integers(robot.window))  # this step and 0..w-1 more
+        robot.window = min(2 * robot.window, BACKOFF_WINDOW_CAP)
         return True
 
 
