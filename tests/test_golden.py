@@ -1,9 +1,12 @@
-"""The single environments still produce their golden trajectories, bit for bit."""
+"""The single environments, the physics fleet and the physics vector env still produce
+their golden runs, bit for bit."""
 
 import numpy as np
 import pytest
 
 from tests.golden import GOLDEN_FILE, SCENARIOS, run
+from tests.golden_physics import FLEET_SCENARIOS, VECTOR_SCENARIOS, run_fleet, run_vector
+from tests.golden_physics import GOLDEN_FILE as GOLDEN_PHYSICS_FILE
 
 
 @pytest.mark.parametrize(("name", "env_id", "kwargs", "seed", "n_actions"), SCENARIOS,
@@ -16,4 +19,30 @@ def test_the_environment_replays_its_golden_trajectory(name, env_id, kwargs, see
     assert sorted(actual) == sorted(expected)
     for key, value in expected.items():
         assert actual[key].dtype == value.dtype, key
+        assert actual[key].tobytes() == value.tobytes(), key
+
+
+def _golden(name: str) -> dict[str, np.ndarray]:
+    with np.load(GOLDEN_PHYSICS_FILE) as golden:
+        return {key.split("/", 1)[1]: golden[key] for key in golden.files
+                if key.startswith(f"{name}/")}  # fmt: skip
+
+
+@pytest.mark.parametrize(("name", "kwargs", "seeds", "steps"), FLEET_SCENARIOS,
+                         ids=[s[0] for s in FLEET_SCENARIOS])  # fmt: skip
+def test_the_physics_fleet_replays_its_golden_run(name, kwargs, seeds, steps):
+    expected = _golden(name)
+    actual = run_fleet(kwargs, seeds, steps)
+    assert sorted(actual) == sorted(expected)
+    for key, value in expected.items():
+        assert actual[key].tobytes() == value.tobytes(), key
+
+
+@pytest.mark.parametrize(("name", "num_envs", "seed", "steps"), VECTOR_SCENARIOS,
+                         ids=[s[0] for s in VECTOR_SCENARIOS])  # fmt: skip
+def test_the_physics_vector_env_replays_its_golden_run(name, num_envs, seed, steps):
+    expected = _golden(name)
+    actual = run_vector(num_envs, seed, steps)
+    assert sorted(actual) == sorted(expected)
+    for key, value in expected.items():
         assert actual[key].tobytes() == value.tobytes(), key
