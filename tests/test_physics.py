@@ -73,7 +73,23 @@ def test_non_numbers_are_refused(value):
 
 
 def test_defaults_pass_the_controller_check():
-    check_controller(DEFAULTS)
+    # The default controller brings the robot to rest without passing its aim.
+    assert check_controller(DEFAULTS) == (0.0, 0.0, 0.0)
+
+
+def test_the_controller_check_measures_how_far_moves_run_past_their_aims():
+    config = PhysicsConfig(max_speed=7.0, gain=100.0, max_force=2000.0, move_duration=0.5,
+                           settle_time=0.15)  # fmt: skip
+    motion = check_controller(config)
+    world = PhysicsWorld(WarehouseGrid(5, 5), config, (2, 2), record_path=True)
+    world.move(Action.RIGHT)
+    assert motion.overshoot == pytest.approx(world.last_path[:, 1].max() - 3, abs=1e-9)
+    world = PhysicsWorld(WarehouseGrid(5, 5), config, (2, 4), record_path=True)
+    world.move(Action.RIGHT)  # a bump into the right wall, and back past the centre
+    assert motion.bump_overshoot == pytest.approx(4 - world.last_path[:, 1].min(), abs=1e-9)
+    assert motion.overshoot > 0.1
+    assert motion.bump_overshoot > 0.01
+    assert motion.drift < 1e-12  # moves run along their axis
 
 
 @pytest.mark.parametrize(

@@ -11,6 +11,7 @@ from warehouse_phys.grid import WarehouseGrid
 from warehouse_phys.traffic import (
     CORNER_FOLLOW_DISTANCE,
     WAIT,
+    check_clearance,
     corner_follows_are_safe,
     resolve_moves,
 )
@@ -140,3 +141,19 @@ def test_the_rule_grants_what_its_first_version_granted():
         )
         np.testing.assert_array_equal(np.asarray(ends), golden["ends"][case, :n])
         np.testing.assert_array_equal(np.asarray(refused), golden["refused"][case, :n])
+
+
+def test_the_clearance_check_names_the_tight_situation_and_the_bound():
+    check_clearance(0.6, 0.0, 0.0, 0.0)  # the default robot and controller
+    check_clearance(0.96, 0.0, 0.0, 0.0)  # discs nearly a cell wide, no overshoot
+    message = (r"head-on come within 1 - 2 x 0\.2 = 0\.6 cells, less than the diameter plus "
+               r"a margin of 0\.02 \(0\.62\); the diameter may be at most 0\.58 cells")  # fmt: skip
+    with pytest.raises(ValueError, match=message):
+        check_clearance(0.6, 0.2, 0.0, 0.0)
+    with pytest.raises(ValueError, match=message):  # a bump's return counts the same
+        check_clearance(0.6, 0.0, 0.2, 0.0)
+    check_clearance(0.58, 0.2, 0.0, 0.0)  # the largest diameter allowed
+    # Drifting sideways narrows a corner follow: refused where corner follows are granted.
+    with pytest.raises(ValueError, match=r"round a corner: .* within sqrt\(0\.5\) - 2 x 0\.05"):
+        check_clearance(0.6, 0.0, 0.0, 0.05)
+    check_clearance(0.7, 0.0, 0.0, 0.05)  # too large for corner follows: none are granted

@@ -28,6 +28,7 @@ from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer
 from warehouse_phys.traffic import (
     FLEET_ACTIONS,
     WAIT,
+    check_clearance,
     corner_follows_are_safe,
     granted_moves,
     moves_refused_by_floor,
@@ -64,9 +65,15 @@ class WarehouseFleetEnv(ParallelEnv):
     one pymunk space (:class:`~warehouse_phys.batched_physics.BatchedPhysicsWorld`,
     shapes that collide with each other), each granted move is driven exactly as
     in the single physics environment and a waiting robot holds its cell's
-    centre. The tests prove that the bodies end on the grid twin's cells, and
-    that no two discs ever come closer than their diameter minus the collision
-    slop.
+    centre. A physical setting is accepted only if the robots' controller passes
+    :func:`~warehouse_phys.physics.check_controller` and leaves room between
+    every two robots in every situation the rule grants
+    (:func:`~warehouse_phys.traffic.check_clearance`: discs of diameter ``d``
+    cells need ``1 - 2e >= d + 0.02``, where ``e`` is how far the controller
+    carries a robot past its cell); anything else is refused with a
+    ``ValueError`` that names the bound. For every accepted setting the tests
+    prove that the bodies end on the grid twin's cells, and that no two discs
+    ever come closer than their diameter minus the collision slop.
 
     ## Action Space
     ``Discrete(5)`` per robot: LEFT=0, DOWN=1, RIGHT=2, UP=3 (as the single
@@ -229,11 +236,10 @@ class WarehouseFleetEnv(ParallelEnv):
         self.max_cycles = int(max_cycles)
         #: The physical parameters (checked even for the grid twin: they decide corner follows).
         self.config = physics_config_from(physical)
-        if physics:
-            check_controller(self.config)
-        self.corner_follows = corner_follows_are_safe(
-            2 * self.config.robot_radius / self.config.cell_size
-        )
+        diameter = 2 * self.config.robot_radius / self.config.cell_size
+        if physics:  # the controller keeps one robot's promises, and the fleet's robots apart
+            check_clearance(diameter, *check_controller(self.config))
+        self.corner_follows = corner_follows_are_safe(diameter)
         if starts == "auto":
             starts = "layout" if getattr(self.grid, "starts_marked", True) else "random"
         self.starts_mode = starts

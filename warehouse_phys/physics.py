@@ -740,9 +740,38 @@ _PROBES: tuple[tuple[Cell, tuple[int, ...]], ...] = (
 )
 
 
+class ControllerMotion(NamedTuple):
+    """How far the controller's moves carry the robot beyond where they aim [cells],
+    the largest of every move :func:`check_controller` tries.
+
+    The fleet's traffic rule needs these to keep robots apart
+    (:func:`~warehouse_phys.traffic.check_clearance`).
+    """
+
+    #: Past the centre of the cell a free move enters, along the move.
+    overshoot: float
+    #: Past the robot's own centre, away from the wall, when a bump drives it back.
+    bump_overshoot: float
+    #: Sideways, across the direction of any move.
+    drift: float
+
+
+def _motion(start: Cell, action: int, free: bool, path: np.ndarray) -> ControllerMotion:
+    """The :class:`ControllerMotion` of one move from ``start`` along ``action``."""
+    d_row, d_col = ACTION_DELTAS[action]
+    offset = path - np.array(start, dtype=np.float64)
+    along = offset @ np.array([d_row, d_col], dtype=np.float64)
+    across = offset @ np.array([d_col, -d_row], dtype=np.float64)
+    drift = float(np.abs(across).max(initial=0.0))
+    if free:
+        return ControllerMotion(max(float(along.max(initial=1.0)) - 1.0, 0.0), 0.0, drift)
+    return ControllerMotion(0.0, max(float(-along.min(initial=0.0)), 0.0), drift)
+
+
 @functools.cache
-def check_controller(config: PhysicsConfig) -> None:
-    """Refuse a configuration whose moves could break a promise of the environments.
+def check_controller(config: PhysicsConfig) -> ControllerMotion:
+    """Refuse a configuration whose moves could break a promise of the environments;
+    measure how far beyond its aims the controller carries the robot.
 
     Tries the controller on a small floor (see ``_PROBES``): free moves in every
     direction with open floor beyond (so no wall hides an overshoot), a free
@@ -755,11 +784,17 @@ def check_controller(config: PhysicsConfig) -> None:
     shelf. The environments call this when they are built; the answer for a
     configuration is cached.
 
+    Returns:
+        The largest overshoots and sideways drift of the moves tried
+        (:class:`ControllerMotion`), which the physics fleet checks against
+        the room its traffic rule leaves between robots.
+
     Raises:
         ValueError: saying which move failed and how, with advice.
     """
     advice = "raise max_force, max_speed or gain, or lengthen move_duration"
     radius = config.robot_radius / config.cell_size
+    overshoot = bump_overshoot = drift = 0.0
     for start, actions in _PROBES:
         world = PhysicsWorld(_PROBE_FLOOR, config, start, record_path=True)
         cell = start
@@ -771,7 +806,8 @@ def check_controller(config: PhysicsConfig) -> None:
                 result = world.move(action)
             except RuntimeError as error:
                 raise ValueError(f"with these settings {name} fails: {error}; {advice}") from None
-            depth = float(penetration(_PROBE_FLOOR, radius, world.last_path).max())
+            path = world.last_path
+            depth = float(penetration(_PROBE_FLOOR, radius, path).max())
             if depth > PENETRATION_TOLERANCE:
                 raise ValueError(
                     f"with these settings {name} drives the robot {depth:.3g} cells into a "
@@ -788,4 +824,9 @@ def check_controller(config: PhysicsConfig) -> None:
                     f"with these settings {name} ends {result.snap_error:.3g} cells from the "
                     f"centre, not within half the bound of {SNAP_ERROR_BOUND}; {advice}"
                 )
+            motion = _motion(cell, action, expected != cell, path)
+            overshoot = max(overshoot, motion.overshoot)
+            bump_overshoot = max(bump_overshoot, motion.bump_overshoot)
+            drift = max(drift, motion.drift)
             cell = expected
+    return ControllerMotion(overshoot, bump_overshoot, drift)

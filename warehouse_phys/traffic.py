@@ -25,11 +25,25 @@ Every robot of a fleet chooses an action at once: one of the four moves of
 (the chains and cycles of rule 3 by pointer doubling), and grants exactly what the
 first, loop-until-stable version granted (golden outcomes in the tests).
 
-Every other pair of robots stays at least a cell apart throughout a step in
-which the rule's grants are driven: a robot that follows another straight keeps
-its distance of one cell, and robots in different cells that do not follow each
-other never head for the same cell. Like :mod:`warehouse_phys.grid`, this module
-imports neither gymnasium, pymunk nor pygame.
+**Clearance.** In the physics twin every robot is driven by the same controller
+from rest on its centre, which carries it at most ``o`` past the centre a free
+move enters, at most ``b`` past its own centre when a bump into a wall drives it
+back, and at most ``s`` sideways (:class:`~warehouse_phys.physics.ControllerMotion`,
+measured by :func:`~warehouse_phys.physics.check_controller`). With ``e = max(o, b, s)``,
+the centres of two robots in a granted step come no closer than [cells]:
+
+- a straight follow at one cell: ``1 - 2s`` (the same motion, one cell apart);
+- a corner follow: ``sqrt(0.5) - 2s`` (see rule 4);
+- a robot passing beside one that waits, bumps or passes: ``1 - s`` or more;
+- a robot entering the cell next to one that waits (converging robots where one
+  goes and the others wait) or that bumps back towards it: ``1 - e``;
+- two robots entering neighbouring cells head-on, or bumping back to back: ``1 - 2e``.
+
+Robots that start farther apart, or diagonally, stay farther apart. So discs of
+diameter ``d`` never touch when ``1 - 2e >= d + CLEARANCE_MARGIN`` and, where corner
+follows are granted, ``sqrt(0.5) - 2s >= d + CLEARANCE_MARGIN``: :func:`check_clearance`
+refuses any setting of the physics fleet that breaks either. Like
+:mod:`warehouse_phys.grid`, this module imports neither gymnasium, pymunk nor pygame.
 """
 
 from __future__ import annotations
@@ -51,6 +65,51 @@ CORNER_FOLLOW_DISTANCE = math.sqrt(0.5)
 #: Room the controller needs beyond the discs' diameter in a corner follow [cells]:
 #: the two robots' profiles are identical, but a margin covers overshoot and settling.
 CORNER_FOLLOW_MARGIN = 0.05
+
+
+#: Room left between two discs beyond what the controller's measured motion takes
+#: [cells]: a margin for histories of moves that the controller check does not try.
+CLEARANCE_MARGIN = 0.02
+
+
+def check_clearance(
+    robot_diameter: float, overshoot: float, bump_overshoot: float, drift: float
+) -> None:
+    """Refuse a robot and controller that the rule's granted steps could bring into contact.
+
+    Args:
+        robot_diameter: The discs' diameter [cells].
+        overshoot, bump_overshoot, drift: How far the controller carries a robot past
+            a free move's cell, past its own cell after a bump, and sideways [cells]
+            (:class:`~warehouse_phys.physics.ControllerMotion`).
+
+    Raises:
+        ValueError: naming the tightest situation, its closest approach, the bound
+            (``d + CLEARANCE_MARGIN``) and the largest diameter this controller allows.
+    """
+    reach = max(overshoot, bump_overshoot, drift)
+    need = robot_diameter + CLEARANCE_MARGIN
+    motion = (
+        f"the controller carries a robot up to {overshoot:.3g} cells past a free move's "
+        f"centre, {bump_overshoot:.3g} past its own after a bump and {drift:.3g} sideways"
+    )
+    if 1 - 2 * reach < need:
+        raise ValueError(
+            f"robots of diameter {robot_diameter:.3g} cells are too large for this "
+            f"controller in a fleet: {motion}, so two robots entering neighbouring cells "
+            f"head-on come within 1 - 2 x {reach:.3g} = {1 - 2 * reach:.3g} cells, less than "
+            f"the diameter plus a margin of {CLEARANCE_MARGIN} ({need:.3g}); the diameter "
+            f"may be at most {1 - 2 * reach - CLEARANCE_MARGIN:.3g} cells (robot_radius over "
+            "cell_size at most half that), or make the controller overshoot less (lower "
+            "max_speed or max_force, raise robot_mass or floor_damping)"
+        )
+    corner = CORNER_FOLLOW_DISTANCE - 2 * drift
+    if corner_follows_are_safe(robot_diameter) and corner < need:
+        raise ValueError(
+            f"robots of diameter {robot_diameter:.3g} cells would touch following each "
+            f"other round a corner: {motion}, so they come within sqrt(0.5) - 2 x "
+            f"{drift:.3g} = {corner:.3g} cells, less than {need:.3g}"
+        )
 
 
 def corner_follows_are_safe(robot_diameter: float) -> bool:

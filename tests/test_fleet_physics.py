@@ -1,0 +1,162 @@
+"""The physics fleet is safe for every setting it accepts: the bodies end on the grid
+twin's cells and no two discs come closer than their diameter less the collision slop,
+in the tightest situations the traffic rule grants, in crowds, and at warehouse scale."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from warehouse_phys import fleet
+from warehouse_phys.physics import (
+    COLLISION_SLOP,
+    SNAP_ERROR_BOUND,
+    SUPPORTED_RANGES,
+    PhysicsConfig,
+    check_controller,
+)
+from warehouse_phys.traffic import CLEARANCE_MARGIN, WAIT, check_clearance
+
+LEFT, DOWN, RIGHT, UP = range(4)
+DEFAULTS = PhysicsConfig()
+
+#: (name, layout whose S cells are the robots' starts in reading order, joint actions)
+TIGHT = [
+    ("following at one cell", ["SS..", "...."], [RIGHT, RIGHT]),
+    ("following round a corner", ["SS", ".."], [RIGHT, DOWN]),
+    ("waiting beside one that passes", ["S..", ".S."], [RIGHT, WAIT]),
+    ("head-on into neighbouring cells", ["S..S", "...."], [RIGHT, LEFT]),
+    ("converging: one goes, two wait", ["S.S", ".S.", "..."], [RIGHT, LEFT, UP]),
+    ("entering beside one that bumps back", ["S.S#", "...."], [RIGHT, RIGHT]),
+    ("bumping back to back", ["S.", "S."], [UP, DOWN]),
+    ("a bump beside one that passes", ["S..", "S.."], [LEFT, RIGHT]),
+    ("a row of four converging and following", ["SS.SS", "....."], [RIGHT, RIGHT, LEFT, LEFT]),
+]  # fmt: skip
+
+
+def all_pairs_gap(env: fleet.WarehouseFleetEnv) -> float:
+    """The smallest gap between any two discs at any physics step of the last step,
+    every pair compared (independent of the fleet's own diagnostic)."""
+    paths = env.world.last_paths  # (N, steps, 2) [cells]
+    apart = np.linalg.norm(paths[:, None] - paths[None, :], axis=-1).min(axis=-1)
+    np.fill_diagonal(apart, np.inf)
+    return float(apart.min()) - 2 * env.config.robot_radius / env.config.cell_size
+
+
+def twins(values: dict, **kwargs: object) -> tuple:
+    return fleet.parallel_env(**kwargs, **values), fleet.parallel_env(
+        physics=True, **kwargs, **values
+    )
+
+
+def assert_twins_agree(grid, phys, actions: dict) -> float:
+    """Step both twins; assert the same cells and grants; return the closest gap."""
+    _, g_rewards, _, _, g_infos = grid.step(actions)
+    _, p_rewards, _, _, p_infos = phys.step(actions)
+    assert np.array_equal(grid.robot_cells, phys.robot_cells)
+    assert g_rewards == p_rewards
+    for agent, info in p_infos.items():
+        assert info["refused"] == g_infos[agent]["refused"]
+        assert info["snap_error"] < SNAP_ERROR_BOUND
+        assert info["min_gap"] > -COLLISION_SLOP
+    gap = all_pairs_gap(phys)
+    assert gap > -COLLISION_SLOP
+    return gap
+
+
+@st.composite
+def accepted_settings(draw) -> dict:
+    """Physical keywords spread log-uniformly across their supported ranges (wide) or
+    close to the defaults, with a whole number of steps a move; kept only if the physics
+    fleet accepts them."""
+    spread = draw(st.sampled_from([0.3, 1.0, 3.0]))
+
+    def around(name: str, spread: float) -> float:
+        low, high = SUPPORTED_RANGES[name]
+        value = getattr(DEFAULTS, name) * 10 ** draw(st.floats(-spread, spread))
+        return float(min(max(value, low), high))
+
+    names = ("cell_size", "robot_mass", "floor_damping", "max_speed", "max_force", "gain")
+    values = {name: around(name, spread) for name in names}
+    values["robot_radius"] = values["cell_size"] * draw(st.floats(0.01, 0.499))
+    dt = around("dt", spread / 2)
+    steps = draw(st.integers(2, 60))
+    settle = draw(st.integers(1, steps - 1))
+    values.update(dt=dt, move_duration=dt * steps, settle_time=dt * settle)
+    try:
+        fleet.parallel_env(num_robots=1, physics=True, **values)
+    except (ValueError, TypeError):
+        from hypothesis import reject
+
+        reject()
+    return values
+
+
+@pytest.mark.slow
+@settings(max_examples=60, suppress_health_check=[HealthCheck.filter_too_much,
+                                                   HealthCheck.too_slow])  # fmt: skip
+@given(values=accepted_settings(), seed=st.integers(0, 2**16), n_robots=st.integers(2, 8))
+def test_every_accepted_setting_keeps_the_fleet_apart_and_on_the_grid_twins_cells(
+    values, seed, n_robots
+):
+    """Every tight situation the rule grants, then a crowd of 2 to 8 robots moving at
+    random on a 5 x 5 floor: the same cells as the grid twin at every step, and no two
+    discs closer than their diameter less the collision slop at any physics step."""
+    for _, layout, joint in TIGHT:
+        grid, phys = twins(values, num_robots=len(joint), layout=layout)
+        grid.reset(seed=seed)
+        phys.reset(seed=seed)
+        agents = phys.possible_agents
+        assert_twins_agree(grid, phys, dict(zip(agents, joint, strict=True)))
+        back = [WAIT if a == WAIT else (a + 2) % 4 for a in joint]  # and back (if not parked)
+        assert_twins_agree(grid, phys, {a: b for a, b in zip(agents, back, strict=True)
+                                        if a in phys.agents})  # fmt: skip
+    grid, phys = twins(values, num_robots=n_robots, grid_rows=5, grid_cols=5, lifelong=True,
+                       starts="random", max_cycles=25)  # fmt: skip
+    grid.reset(seed=seed)
+    phys.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    while phys.agents:
+        actions = rng.choice(5, size=n_robots, p=[0.22, 0.22, 0.22, 0.22, 0.12]).tolist()
+        assert_twins_agree(grid, phys, dict(zip(phys.agents, actions, strict=True)))
+
+
+@pytest.mark.parametrize(("name", "layout", "joint"), TIGHT, ids=[t[0] for t in TIGHT])
+def test_the_default_robots_keep_their_clearance_in_every_tight_situation(name, layout, joint):
+    grid, phys = twins({}, num_robots=len(joint), layout=layout)
+    grid.reset(seed=0)
+    phys.reset(seed=0)
+    gap = assert_twins_agree(grid, phys, dict(zip(phys.possible_agents, joint, strict=True)))
+    # The default controller does not overshoot: the tightest is the corner, sqrt(0.5) apart.
+    assert gap >= np.sqrt(0.5) - 0.6 - 1e-6, name
+
+
+#: A fast, lightly damped controller: a free move runs about 0.15 cells past its cell.
+OVERSHOOTING = {"max_speed": 7.0, "gain": 100.0, "max_force": 2000.0, "move_duration": 0.5,
+                "settle_time": 0.15}  # fmt: skip
+
+
+def test_a_controller_that_overshoots_too_far_for_its_robots_is_refused_by_name():
+    motion = check_controller(PhysicsConfig(**OVERSHOOTING))
+    assert motion.overshoot > 0.1
+    largest = 1 - 2 * motion.overshoot - CLEARANCE_MARGIN  # the largest diameter allowed
+    fleet.parallel_env(physics=True, robot_radius=0.49 * largest, **OVERSHOOTING)
+    with pytest.raises(ValueError, match=r"head-on come within 1 - 2 x 0\.146 = 0\.708 cells"):
+        fleet.parallel_env(physics=True, robot_radius=0.51 * largest, **OVERSHOOTING)
+    # The grid twin and a single robot have no body to touch: they accept the setting.
+    fleet.parallel_env(robot_radius=0.51 * largest, **OVERSHOOTING)
+    assert check_controller(PhysicsConfig(robot_radius=0.51 * largest, **OVERSHOOTING))
+
+
+def test_the_robots_the_bound_refuses_would_touch_head_on(monkeypatch):
+    """Why the bound is there: forced past the check, the robots it refuses collide."""
+    motion = check_controller(PhysicsConfig(**OVERSHOOTING))
+    radius = 0.5 * (1 - 2 * motion.overshoot + 0.03)  # wider than the head-on approach
+    with pytest.raises(ValueError, match="too large for this controller"):
+        check_clearance(2 * radius, *motion)
+    monkeypatch.setattr(fleet, "check_clearance", lambda *args: None)
+    phys = fleet.parallel_env(num_robots=2, physics=True, layout=["S..S", "...."],
+                              robot_radius=radius, **OVERSHOOTING)  # fmt: skip
+    phys.reset(seed=0)
+    phys.step({"robot_0": RIGHT, "robot_1": LEFT})
+    assert all_pairs_gap(phys) < -COLLISION_SLOP
