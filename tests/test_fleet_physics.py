@@ -7,6 +7,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tests.memory import CAN_MEASURE, growth_per_reset
 from warehouse_phys import fleet
 from warehouse_phys.physics import (
     COLLISION_SLOP,
@@ -160,3 +161,17 @@ def test_the_robots_the_bound_refuses_would_touch_head_on(monkeypatch):
     phys.reset(seed=0)
     phys.step({"robot_0": RIGHT, "robot_1": LEFT})
     assert all_pairs_gap(phys) < -COLLISION_SLOP
+
+
+# ------------------------------------------------------------- restarts, memory
+@pytest.mark.skipif(not CAN_MEASURE, reason="resident memory is read from Linux's /proc")
+def test_a_reset_restarts_the_world_and_holds_no_more_memory():
+    env = fleet.parallel_env(num_robots=16, physics=True, grid_rows=8, grid_cols=8,
+                             lifelong=True)  # fmt: skip
+    env.reset(seed=0)
+    world = env.world
+    env.step(dict.fromkeys(env.agents, RIGHT))
+    env.reset(seed=1)
+    assert env.world is world  # restarted, not rebuilt
+    # Each rebuilt world used to keep a few kilobytes of chipmunk's arrays for good.
+    assert growth_per_reset(lambda seed: env.reset(seed=seed), 3000) < 100

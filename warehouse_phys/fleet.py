@@ -372,14 +372,13 @@ class WarehouseFleetEnv(ParallelEnv):
         self._on_floor[:] = True
         self._deliveries[:] = 0
         self._steps = 0
-        if self.physics:
+        if self.physics and self.world is None:
             self.world = BatchedPhysicsWorld(
-                self.grid,
-                self.config,
-                [tuple(cell) for cell in self._cells.tolist()],
-                np.zeros(n, dtype=np.int64),
+                self.grid, self.config, self._cells, np.zeros(n, dtype=np.int64),
                 record_path=True,
-            )
+            )  # fmt: skip
+        elif self.physics:  # every robot as newly built, in the same world
+            self.world.restart(np.arange(n), self._cells)
         live = np.arange(n)
         refused = np.zeros(n, dtype=bool)
         return self._observations(live), self._infos(live, refused, None, None)

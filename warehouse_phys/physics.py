@@ -393,7 +393,7 @@ class PhysicsWorld:
             )
         bodies = RobotBodies(self.robot, self.robot_shape, self.control, self.joint)
         self.joint = renew_robot(self.space, self.config, bodies, self.centre(start)).joint
-        _clear_time_step(self.space)
+        clear_time_step(self.space)
         self._path.clear()
         self.cell = Cell(int(start[0]), int(start[1]))
 
@@ -584,7 +584,7 @@ if _LIB is not None:
         """Place the body at ``position`` [m] (as ``body.position = position``)."""
         _LIB.cpBodySetPosition(body._body, position)
 
-    def _clear_time_step(space: pymunk.Space) -> None:
+    def clear_time_step(space: pymunk.Space) -> None:
         """Forget the space's last time step: its next step then applies no cached
         impulses, as the first step of a new space does."""
         _LIB.cpSpaceSetCurrentTimeStep(space._space, 0.0)
@@ -616,7 +616,7 @@ else:  # pragma: no cover - the same through pymunk's properties
     def _set_position(body: pymunk.Body, position: tuple[float, float]) -> None:
         body.position = position
 
-    def _clear_time_step(space: pymunk.Space) -> None:
+    def clear_time_step(space: pymunk.Space) -> None:
         raise RuntimeError("this pymunk cannot clear a space's time step: build a new world")
 
     def _place_at_rest(body: pymunk.Body, position: tuple[float, float]) -> None:

@@ -564,8 +564,9 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start new episodes on every floor (in a newly built world), or on those
-        ``options["reset_mask"]`` marks (each on a newly built robot)."""
+        """Start new episodes on every floor, or on those ``options["reset_mask"]`` marks,
+        each on a robot as newly built (the world is built by the first reset and
+        restarted after, :meth:`BatchedPhysicsWorld.restart`)."""
         return super().reset(seed=seed, options=options)
 
     @property
@@ -590,10 +591,6 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
         return self.world.last_paths
 
     # ------------------------------------------------------------------ hooks
-    def _start_all(self) -> None:
-        super()._start_all()
-        self.world = None  # every floor restarts: _restart builds a new world
-
     def _move_robots(self, actions: np.ndarray) -> np.ndarray:
         cells, self._snap_error = self.world.move_by(actions)
         return (cells[:, 0] * self.grid_cols + cells[:, 1]) * 4
