@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warehouse_phys.batched_physics import BatchedPhysicsWorld
+from warehouse_phys.batched_physics import ACTION_DELTA_ARRAY, GAP_REACH, BatchedPhysicsWorld
 from warehouse_phys.grid import WarehouseGrid
 from warehouse_phys.layouts import PRESETS, resolve_layout
 from warehouse_phys.physics import SNAP_ERROR_BOUND, PhysicsConfig, PhysicsWorld, penetration
@@ -156,3 +156,27 @@ def test_paths_need_recording():
     world = BatchedPhysicsWorld(FLOORS["default"], CONFIG, [(0, 0)])
     with pytest.raises(RuntimeError, match="record_path=True"):
         world.last_paths  # noqa: B018 - the property raises
+
+
+@pytest.mark.parametrize("n_floors", [1, 3])
+def test_the_closest_approach_is_every_pair_within_reach_compared(n_floors):
+    grid = WarehouseGrid(12, 12)
+    rng = np.random.default_rng(5)
+    n = 60
+    floor_of = np.arange(n) % n_floors
+    cells = np.stack(np.divmod(rng.choice(144, n, replace=False), 12), axis=1)
+    world = BatchedPhysicsWorld(grid, PhysicsConfig(), cells, floor_of, record_path=True)
+    assert np.isinf(world.closest_approach()).all()  # no move yet
+    for _ in range(3):
+        starts = world.cells.copy()
+        aims = starts + ACTION_DELTA_ARRAY[rng.integers(4, size=n)]
+        world.move(np.where(rng.random((n, 1)) < 0.7, aims, starts))  # robots may overlap
+        paths = world.last_paths  # (N, steps, 2)
+        every_pair = np.linalg.norm(paths[:, None] - paths[None, :], axis=-1).min(axis=-1)
+        start_apart = np.linalg.norm(starts[:, None] - starts[None, :], axis=-1)
+        others = (floor_of[:, None] == floor_of[None, :]) & ~np.eye(n, dtype=bool)
+        compared = others & (start_apart <= GAP_REACH)
+        expected = np.where(compared, every_pair, np.inf).min(axis=1)
+        assert np.array_equal(world.closest_approach(), expected)
+        assert np.isfinite(expected).any()
+        assert (every_pair[others & ~compared] > 1).all()  # out of reach: never near

@@ -438,16 +438,6 @@ def test_bad_modes_are_refused_by_name(kwargs, message):
         fleet.parallel_env(**kwargs)
 
 
-def test_the_closest_approach_is_that_of_every_pair_compared():
-    rng = np.random.default_rng(3)
-    for n in (1, 2, 7, 40):
-        starts = rng.uniform(0, 12, size=(n, 1, 2))
-        paths = starts + np.cumsum(rng.normal(0, 0.2, size=(n, 15, 2)), axis=1)
-        every_pair = np.linalg.norm(paths[:, None] - paths[None, :], axis=-1).min(axis=-1)
-        np.fill_diagonal(every_pair, np.inf)
-        assert np.array_equal(fleet.closest_approach(paths), every_pair.min(axis=1))
-
-
 def test_a_physics_fleet_of_the_most_robots_steps_without_touching():
     n = fleet.MAX_PHYSICS_ROBOTS
     env = fleet.parallel_env(num_robots=n, physics=True, grid_rows=48, grid_cols=48,

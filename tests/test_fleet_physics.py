@@ -110,8 +110,9 @@ def test_every_accepted_setting_keeps_the_fleet_apart_and_on_the_grid_twins_cell
         agents = phys.possible_agents
         assert_twins_agree(grid, phys, dict(zip(agents, joint, strict=True)))
         back = [WAIT if a == WAIT else (a + 2) % 4 for a in joint]  # and back (if not parked)
-        assert_twins_agree(grid, phys, {a: b for a, b in zip(agents, back, strict=True)
-                                        if a in phys.agents})  # fmt: skip
+        if phys.agents:
+            assert_twins_agree(grid, phys, {a: b for a, b in zip(agents, back, strict=True)
+                                            if a in phys.agents})  # fmt: skip
     grid, phys = twins(values, num_robots=n_robots, grid_rows=5, grid_cols=5, lifelong=True,
                        starts="random", max_cycles=25)  # fmt: skip
     grid.reset(seed=seed)
@@ -175,3 +176,29 @@ def test_a_reset_restarts_the_world_and_holds_no_more_memory():
     assert env.world is world  # restarted, not rebuilt
     # Each rebuilt world used to keep a few kilobytes of chipmunk's arrays for good.
     assert growth_per_reset(lambda seed: env.reset(seed=seed), 3000) < 100
+
+
+def test_without_gap_tracking_the_fleet_moves_alike_and_reads_no_paths():
+    kwargs = {"num_robots": 6, "physics": True, "grid_rows": 5, "grid_cols": 5, "lifelong": True}
+    tracked, plain = fleet.parallel_env(**kwargs), fleet.parallel_env(track_gaps=False, **kwargs)
+    tracked.reset(seed=3)
+    plain.reset(seed=3)
+    assert not plain.world.record_path
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        actions = dict(zip(tracked.agents, rng.integers(5, size=6).tolist(), strict=True))
+        _, _, _, _, with_gaps = tracked.step(actions)
+        _, _, _, _, infos = plain.step(actions)
+        assert np.array_equal(tracked.robot_cells, plain.robot_cells)
+        for agent, info in infos.items():
+            assert "min_gap" not in info
+            assert info == {k: v for k, v in with_gaps[agent].items() if k != "min_gap"}
+    with pytest.raises(ValueError, match="does not record the motion: make it with render_mode"):
+        plain.move_frames()
+    with pytest.raises(TypeError, match="track_gaps must be a bool"):
+        fleet.parallel_env(track_gaps=1)
+    # Frames of the motion still come when asked for.
+    framed = fleet.parallel_env(track_gaps=False, render_mode="rgb_array", **kwargs)
+    framed.reset(seed=3)
+    framed.step(dict.fromkeys(framed.agents, WAIT))
+    assert len(framed.move_frames()) == framed.config.steps_per_move

@@ -35,7 +35,13 @@ def test_the_physics_fleet_replays_its_golden_run(name, kwargs, seeds, steps):
     actual = run_fleet(kwargs, seeds, steps)
     assert sorted(actual) == sorted(expected)
     for key, value in expected.items():
-        assert actual[key].tobytes() == value.tobytes(), key
+        if key == "min_gap":  # recorded over every pair; now over the robots within reach
+            close = value < 1  # (and -1 for a robot done): every close approach is exact
+            assert actual[key][close].tobytes() == value[close].tobytes()
+            assert (actual[key][~close] >= value[~close]).all()  # farther: a subset's minimum
+            assert close.any()
+        else:
+            assert actual[key].tobytes() == value.tobytes(), key
 
 
 @pytest.mark.parametrize(("name", "num_envs", "seed", "steps"), VECTOR_SCENARIOS,

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 import pymunk
 import pymunk.batch
+from scipy.spatial import cKDTree
 
 from warehouse_phys.grid import ACTION_DELTAS, WarehouseGrid
 from warehouse_phys.physics import (
@@ -47,6 +48,12 @@ from warehouse_phys.physics import (
 
 #: Empty floor between the walls of two neighbouring floors [cells].
 FLOOR_GAP = 1.0
+
+#: Farthest apart two robots may start a move and still meet during it [cells]: a
+#: centre strays at most 1.5 cells in a move (a cell, and past it by less than half
+#: a cell, as the fleet's clearance check demands), so centres that start farther
+#: apart than 1.5 + 1.5 + one disc's diameter (less than a cell) never touch.
+GAP_REACH = 4.0
 
 #: ``ACTION_DELTAS`` as an array: ``ACTION_DELTA_ARRAY[action]`` is ``(d_row, d_col)``.
 ACTION_DELTA_ARRAY = np.array(ACTION_DELTAS, dtype=np.int64)
@@ -204,6 +211,7 @@ class BatchedPhysicsWorld:
         self._snap_io = pymunk.batch.Buffer()
         self._find_bodies()
         self._path = np.zeros((0, n_robots, 2))
+        self._move_starts = self.cells
 
     def __getstate__(self) -> dict[str, object]:
         # The batched I/O buffers hold C pointers; a copy or an unpickled world makes its own.
@@ -238,6 +246,7 @@ class BatchedPhysicsWorld:
                 floor, which a supported configuration never allows.
         """
         size, origin = self._size, self._origin
+        self._move_starts = self.cells
         aims_xy = aims[:, ::-1]  # (col, row): the order of (x, y)
         aim_xy = (aims_xy + 0.5) * size + origin
         self._write_positions(self._centre_xy, aim_xy)
@@ -309,6 +318,8 @@ class BatchedPhysicsWorld:
         if len(robots) == self.n_robots and (np.sort(robots) == np.arange(self.n_robots)).all():
             clear_time_step(self.space)  # every robot anew: the space's next step is a first
         self.cells = cells
+        self._move_starts = self._move_starts.copy()
+        self._move_starts[robots] = starts
         self._centre_xy = self._centre_xy.copy()
         self._centre_xy[robots] = centre_xy
         if self.record_path and len(self._path):
@@ -335,6 +346,37 @@ class BatchedPhysicsWorld:
         if not self.record_path:
             raise RuntimeError("this world does not record paths; build it with record_path=True")
         return self._to_cells(self._path).transpose(1, 0, 2).copy()
+
+    def closest_approach(self, reach: float = GAP_REACH) -> np.ndarray:
+        """How close each robot's centre came to another's during the last move [cells].
+
+        Only robots on the same floor whose cells at the start of the move were at
+        most ``reach`` cells apart are compared (a k-d tree finds them; robots
+        farther apart cannot meet, see :data:`GAP_REACH`), at every physics step of
+        the move: O(N x steps) in array operations.
+
+        Returns:
+            ``(N,)`` float64: each robot's smallest distance, ``inf`` for a robot
+            with no other within reach (and for every robot before the first move).
+
+        Raises:
+            RuntimeError: if the world does not record paths.
+        """
+        if not self.record_path:
+            raise RuntimeError("this world does not record paths; build it with record_path=True")
+        closest = np.full(self.n_robots, np.inf)
+        if self.n_robots < 2 or not len(self._path):
+            return closest
+        pairs = cKDTree(self._move_starts).query_pairs(reach, output_type="ndarray")
+        if self.n_floors > 1:
+            pairs = pairs[self.floor_of[pairs[:, 0]] == self.floor_of[pairs[:, 1]]]
+        if len(pairs):
+            path = self._to_cells(self._path)  # (steps, N, 2)
+            offset = path[:, pairs[:, 0]] - path[:, pairs[:, 1]]
+            apart = np.sqrt(np.einsum("spk,spk->sp", offset, offset).min(axis=0))
+            np.minimum.at(closest, pairs[:, 0], apart)
+            np.minimum.at(closest, pairs[:, 1], apart)
+        return closest
 
     # ------------------------------------------------------------------ helpers
     def _advance(self, steps: int, first: int) -> np.ndarray:

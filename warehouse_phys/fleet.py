@@ -7,7 +7,6 @@ an AEC environment (PettingZoo's ``parallel_to_aec``, refusing a bad action at o
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
 from typing import Any
 
@@ -17,7 +16,6 @@ from gymnasium.utils import seeding
 from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
-from scipy.spatial import cKDTree
 
 from warehouse_phys.batched_physics import ACTION_DELTA_ARRAY, BatchedPhysicsWorld
 from warehouse_phys.distances import DistanceMaps
@@ -128,7 +126,12 @@ class WarehouseFleetEnv(ParallelEnv):
     other robots), ``refused`` (whether traffic turned its move into a wait),
     ``deliveries`` (packages delivered this episode) and, in the physics world,
     ``snap_error`` and ``min_gap``: the smallest distance between its disc and
-    another robot's during the step [cells] (negative: the discs overlapped).
+    another robot's during the step [cells] (negative: the discs overlapped;
+    ``inf``: no robot within reach,
+    :data:`~warehouse_phys.batched_physics.GAP_REACH` cells, at the start of the
+    step). It costs a read of every body after each physics step and a
+    comparison of the robots within reach; ``track_gaps=False`` leaves both out,
+    and ``min_gap`` with them.
 
     Planners and evaluators read the fleet through read-only arrays:
     :attr:`robot_cells` and :attr:`package_cells` ``(N, 2)``, :attr:`parked`,
@@ -155,6 +158,8 @@ class WarehouseFleetEnv(ParallelEnv):
       colour; ``"ansi"``: robots as digits, packages as letters), ``cell_px``.
       :meth:`move_frames` gives the physics world's motion during the last step,
       one frame per physics step.
+    - ``track_gaps`` (bool, default True): whether the physics world measures
+      ``min_gap``.
 
     ## Version History
     - v0: first version.
@@ -181,13 +186,15 @@ class WarehouseFleetEnv(ParallelEnv):
         cell_px: int = DEFAULT_CELL_PX,
         on_delivery: str | None = None,
         starts: str = "auto",
+        track_gaps: bool = True,
         **physical: float,
     ) -> None:
         if isinstance(num_robots, bool) or not isinstance(num_robots, (int, np.integer)):
             raise TypeError(f"num_robots must be an integer, got {num_robots!r}")
         if num_robots < 1:
             raise ValueError(f"num_robots must be at least 1, got {num_robots}")
-        for name, flag in (("physics", physics), ("lifelong", lifelong)):
+        flags = (("physics", physics), ("lifelong", lifelong), ("track_gaps", track_gaps))
+        for name, flag in flags:
             if not isinstance(flag, bool):
                 raise TypeError(f"{name} must be a bool, got {flag!r}")
         for name, value, choices in (
@@ -224,6 +231,9 @@ class WarehouseFleetEnv(ParallelEnv):
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.num_robots = int(num_robots)
         self.physics = physics
+        #: Whether a physics step measures ``min_gap`` (reading every body after each
+        #: physics step); frames of the motion need the same reads.
+        self.track_gaps = track_gaps
         self.on_delivery = "new_package" if lifelong else on_delivery or "park"
         self.observation = observation
         self.render_mode = render_mode
@@ -375,7 +385,7 @@ class WarehouseFleetEnv(ParallelEnv):
         if self.physics and self.world is None:
             self.world = BatchedPhysicsWorld(
                 self.grid, self.config, self._cells, np.zeros(n, dtype=np.int64),
-                record_path=True,
+                record_path=self.track_gaps or self.render_mode == "rgb_array",
             )  # fmt: skip
         elif self.physics:  # every robot as newly built, in the same world
             self.world.restart(np.arange(n), self._cells)
@@ -468,6 +478,11 @@ class WarehouseFleetEnv(ParallelEnv):
         """
         if self.world is None:
             raise ValueError("only the physics world (physics=True) has motion frames")
+        if not self.world.record_path:
+            raise ValueError(
+                "this fleet does not record the motion: make it with render_mode='rgb_array' "
+                "or track_gaps=True"
+            )
         paths = self.world.last_paths  # (K, steps, 2)
         packages = self._package_list()
         return [
@@ -622,9 +637,10 @@ class WarehouseFleetEnv(ParallelEnv):
         hold = ~(granted | bumps)
         aims[hold] = cells[hold]
         body_cells, snap_errors = self.world.move(aims)
-        paths = self.world.last_paths  # (K, steps, 2) in cells
-        diameter = 2 * self.config.robot_radius / self.config.cell_size
-        gaps = closest_approach(paths) - diameter
+        gaps = None
+        if self.track_gaps:
+            diameter = 2 * self.config.robot_radius / self.config.cell_size
+            gaps = self.world.closest_approach() - diameter
         return np.asarray(body_cells, dtype=np.int64).reshape(-1, 2), snap_errors, gaps
 
     def _observations(self, live: np.ndarray) -> dict[str, np.ndarray]:
@@ -686,7 +702,13 @@ class WarehouseFleetEnv(ParallelEnv):
             }
         if snap_errors is None:  # at a reset
             snap_errors, gaps = np.zeros(self.num_robots), np.full(self.num_robots, np.inf)
-        columns += [snap_errors[live].astype(float).tolist(), gaps[live].astype(float).tolist()]
+        columns.append(snap_errors[live].astype(float).tolist())
+        if not self.track_gaps:
+            return {
+                agent: {"optimal_steps": o, "refused": r, "deliveries": d, "snap_error": s}
+                for agent, o, r, d, s in zip(self.agents, *columns, strict=True)
+            }
+        columns.append(gaps[live].astype(float).tolist())
         return {
             agent: {"optimal_steps": o, "refused": r, "deliveries": d, "snap_error": s,
                     "min_gap": g}
@@ -706,43 +728,6 @@ class WarehouseFleetEnv(ParallelEnv):
             if self._on_floor[i]:
                 board[row][col] = str(i % 10)
         return "\n".join(" ".join(row) for row in board)
-
-
-def closest_approach(paths: np.ndarray) -> np.ndarray:
-    """How close each robot's centre comes to another's during one move [cells].
-
-    Args:
-        paths: ``(N, steps, 2)`` positions after each physics step
-            (:attr:`~warehouse_phys.batched_physics.BatchedPhysicsWorld.last_paths`).
-
-    Returns:
-        ``(N,)`` float64: for each robot the smallest distance, over the steps and
-        the other robots, between the two centres at the same step; ``inf`` for a
-        robot alone. Exact, equal to comparing every pair, but only pairs that can
-        matter are compared: a robot that strays at most ``e`` from its first
-        position never comes closer to another than their first distance less both
-        strays, so beyond its nearest first neighbour's distance plus both strays
-        no robot can be closer (a k-d tree finds the pairs within that radius).
-    """
-    n = len(paths)
-    closest = np.full(n, np.inf)
-    if n < 2 or paths.shape[1] == 0:
-        return closest
-    first = paths[:, 0]
-    stray = np.linalg.norm(paths - first[:, None], axis=-1).max(axis=1)
-    tree = cKDTree(first)
-    nearest = tree.query(first, k=2)[0][:, 1]
-    # A small margin keeps a pair at the radius in: extra pairs change no minimum.
-    radius = nearest + stray + stray.max() + 1e-9
-    within = tree.query_ball_point(first, radius, return_sorted=False)
-    counts = np.fromiter(map(len, within), np.int64, n)
-    robot = np.repeat(np.arange(n), counts)
-    other = np.fromiter(itertools.chain.from_iterable(within), np.int64, int(counts.sum()))
-    pair = robot != other
-    robot, other = robot[pair], other[pair]
-    apart = np.linalg.norm(paths[robot] - paths[other], axis=-1).min(axis=-1)
-    np.minimum.at(closest, robot, apart)
-    return closest
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:
