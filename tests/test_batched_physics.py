@@ -173,10 +173,10 @@ def test_the_closest_approach_is_every_pair_within_reach_compared(n_floors):
         world.move(np.where(rng.random((n, 1)) < 0.7, aims, starts))  # robots may overlap
         paths = world.last_paths  # (N, steps, 2)
         every_pair = np.linalg.norm(paths[:, None] - paths[None, :], axis=-1).min(axis=-1)
-        start_apart = np.linalg.norm(starts[:, None] - starts[None, :], axis=-1)
+        start_apart = np.abs(starts[:, None] - starts[None, :]).sum(axis=-1)
         others = (floor_of[:, None] == floor_of[None, :]) & ~np.eye(n, dtype=bool)
         compared = others & (start_apart <= GAP_REACH)
         expected = np.where(compared, every_pair, np.inf).min(axis=1)
         assert np.array_equal(world.closest_approach(), expected)
         assert np.isfinite(expected).any()
-        assert (every_pair[others & ~compared] > 1).all()  # out of reach: never near
+        assert (every_pair[others & ~compared] > 0.99).all()  # never near the others

@@ -36,7 +36,9 @@ def test_the_physics_fleet_replays_its_golden_run(name, kwargs, seeds, steps):
     assert sorted(actual) == sorted(expected)
     for key, value in expected.items():
         if key == "min_gap":  # recorded over every pair; now over the robots within reach
-            close = value < 1  # (and -1 for a robot done): every close approach is exact
+            # Every approach closer than sqrt(2) - d (the closest two robots out of reach
+            # can come) is exact; -1 marks a robot done, without infos.
+            close = value < 0.8
             assert actual[key][close].tobytes() == value[close].tobytes()
             assert (actual[key][~close] >= value[~close]).all()  # farther: a subset's minimum
             assert close.any()

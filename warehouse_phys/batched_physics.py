@@ -49,11 +49,13 @@ from warehouse_phys.physics import (
 #: Empty floor between the walls of two neighbouring floors [cells].
 FLOOR_GAP = 1.0
 
-#: Farthest apart two robots may start a move and still meet during it [cells]: a
-#: centre strays at most 1.5 cells in a move (a cell, and past it by less than half
-#: a cell, as the fleet's clearance check demands), so centres that start farther
-#: apart than 1.5 + 1.5 + one disc's diameter (less than a cell) never touch.
-GAP_REACH = 4.0
+#: Farthest apart two robots' cells may be at the start of a move, counted in steps
+#: along rows and columns, for their discs to touch during it [cells]. A centre moves
+#: along one axis, at most 1 + e cells, and drifts sideways at most s, where the fleet's
+#: clearance check keeps e and s below (1 - d) / 2 for discs of diameter d < 1; so two
+#: centres' row-and-column distance changes by at most 4 - 2d, and discs that touch
+#: are less than sqrt(2) d apart that way: they started less than 4 apart.
+GAP_REACH = 3
 
 #: ``ACTION_DELTAS`` as an array: ``ACTION_DELTA_ARRAY[action]`` is ``(d_row, d_col)``.
 ACTION_DELTA_ARRAY = np.array(ACTION_DELTAS, dtype=np.int64)
@@ -347,17 +349,17 @@ class BatchedPhysicsWorld:
             raise RuntimeError("this world does not record paths; build it with record_path=True")
         return self._to_cells(self._path).transpose(1, 0, 2).copy()
 
-    def closest_approach(self, reach: float = GAP_REACH) -> np.ndarray:
+    def closest_approach(self, reach: int = GAP_REACH) -> np.ndarray:
         """How close each robot's centre came to another's during the last move [cells].
 
-        Only robots on the same floor whose cells at the start of the move were at
-        most ``reach`` cells apart are compared (a k-d tree finds them; robots
-        farther apart cannot meet, see :data:`GAP_REACH`), at every physics step of
-        the move: O(N x steps) in array operations.
+        Compared, at every physics step of the move: the robots on the same floor
+        whose cells at its start were at most ``reach`` steps apart along rows and
+        columns (a k-d tree finds them; robots farther apart cannot meet, see
+        :data:`GAP_REACH`). O(N x steps) array operations.
 
         Returns:
             ``(N,)`` float64: each robot's smallest distance, ``inf`` for a robot
-            with no other within reach (and for every robot before the first move).
+            with no other compared (and for every robot before the first move).
 
         Raises:
             RuntimeError: if the world does not record paths.
@@ -367,15 +369,20 @@ class BatchedPhysicsWorld:
         closest = np.full(self.n_robots, np.inf)
         if self.n_robots < 2 or not len(self._path):
             return closest
-        pairs = cKDTree(self._move_starts).query_pairs(reach, output_type="ndarray")
+        tree = cKDTree(self._move_starts)
+        pairs = tree.query_pairs(reach, p=1, output_type="ndarray")
+        first, second = pairs[:, 0], pairs[:, 1]
         if self.n_floors > 1:
-            pairs = pairs[self.floor_of[pairs[:, 0]] == self.floor_of[pairs[:, 1]]]
-        if len(pairs):
-            path = self._to_cells(self._path)  # (steps, N, 2)
-            offset = path[:, pairs[:, 0]] - path[:, pairs[:, 1]]
-            apart = np.sqrt(np.einsum("spk,spk->sp", offset, offset).min(axis=0))
-            np.minimum.at(closest, pairs[:, 0], apart)
-            np.minimum.at(closest, pairs[:, 1], apart)
+            same = self.floor_of[first] == self.floor_of[second]
+            first, second = first[same], second[same]
+        if len(first):
+            # Robot by robot: each pair's two paths are two contiguous rows.
+            path = self._to_cells(self._path).transpose(1, 0, 2).reshape(self.n_robots, -1)
+            offset = path[first] - path[second]  # (pairs, steps * 2): row, col, row, ...
+            offset *= offset
+            apart = np.sqrt((offset[:, 0::2] + offset[:, 1::2]).min(axis=1))
+            np.minimum.at(closest, first, apart)
+            np.minimum.at(closest, second, apart)
         return closest
 
     # ------------------------------------------------------------------ helpers
