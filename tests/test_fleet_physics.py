@@ -2,12 +2,21 @@
 twin's cells and no two discs come closer than their diameter less the collision slop,
 in the tightest situations the traffic rule grants, in crowds, and at warehouse scale."""
 
+import functools
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+with warnings.catch_warnings():
+    # pettingzoo.test imports one of PettingZoo's own games through a path it deprecates.
+    warnings.simplefilter("ignore", DeprecationWarning)
+    from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
+
 from tests.memory import CAN_MEASURE, growth_per_reset
+from tests.test_fleet import pettingzoo_quietly
 from warehouse_phys import fleet
 from warehouse_phys.physics import (
     COLLISION_SLOP,
@@ -16,6 +25,7 @@ from warehouse_phys.physics import (
     PhysicsConfig,
     check_controller,
 )
+from warehouse_phys.planning import pibt_policy
 from warehouse_phys.traffic import CLEARANCE_MARGIN, WAIT, check_clearance
 
 LEFT, DOWN, RIGHT, UP = range(4)
@@ -202,3 +212,61 @@ def test_without_gap_tracking_the_fleet_moves_alike_and_reads_no_paths():
     framed.reset(seed=3)
     framed.step(dict.fromkeys(framed.agents, WAIT))
     assert len(framed.move_frames()) == framed.config.steps_per_move
+
+
+# ------------------------------------------------------------------ at scale
+def test_256_robots_on_the_kiva_warehouse_follow_the_planner_as_the_grid_twin_does():
+    """The proof at warehouse scale: 256 robots, the planner, 256 lifelong steps."""
+    kwargs = {"num_robots": 256, "layout": "warehouse", "lifelong": True, "max_cycles": 256}
+    grid, phys = twins({}, **kwargs)
+    grid_plan, phys_plan = pibt_policy(0), pibt_policy(0)
+    g_obs, g_infos = grid.reset(seed=0)
+    p_obs, p_infos = phys.reset(seed=0)
+    closest, steps = np.inf, 0
+    while phys.agents:
+        actions = grid_plan(grid, g_obs, g_infos)
+        assert phys_plan(phys, p_obs, p_infos) == actions
+        g_obs, g_rewards, _, _, g_infos = grid.step(actions)
+        p_obs, p_rewards, _, _, p_infos = phys.step(actions)
+        assert np.array_equal(grid.robot_cells, phys.robot_cells)
+        assert g_rewards == p_rewards
+        assert not any(info["refused"] for info in p_infos.values())
+        assert max(info["snap_error"] for info in p_infos.values()) < SNAP_ERROR_BOUND
+        closest = min(closest, *(info["min_gap"] for info in p_infos.values()))
+        steps += 1
+    assert steps == 256
+    assert np.array_equal(grid.deliveries, phys.deliveries)
+    assert phys.deliveries.sum() / steps > 4  # deliveries per step: the grid's throughput
+    # The closest the rule lets two default robots come: a corner follow, sqrt(0.5) - 0.6.
+    assert closest == pytest.approx(np.sqrt(0.5) - 0.6, abs=0.01)
+
+
+@pytest.mark.parametrize(("n_robots", "cycles"), [(2, 200), (64, 100), (256, 40)])
+def test_pettingzoos_suites_pass_for_physics_fleets_of_any_size(n_robots, cycles):
+    side = 4 if n_robots == 2 else 24
+    kwargs = {"num_robots": n_robots, "physics": True, "grid_rows": side, "grid_cols": side,
+              "starts": "random", "max_cycles": 2 * cycles}  # fmt: skip
+    pettingzoo_quietly(parallel_api_test, fleet.parallel_env(**kwargs), num_cycles=cycles)
+    pettingzoo_quietly(parallel_seed_test, functools.partial(fleet.parallel_env, **kwargs), cycles)
+    pettingzoo_quietly(api_test, fleet.env(**kwargs), num_cycles=cycles // 2)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not CAN_MEASURE, reason="resident memory is read from Linux's /proc")
+def test_a_physics_fleet_of_1024_robots_takes_little_memory(run_python):
+    script = """
+import numpy as np
+from tests.memory import resident_bytes
+from warehouse_phys import fleet
+before = resident_bytes()
+env = fleet.parallel_env(num_robots=1024, physics=True, grid_rows=48, grid_cols=48,
+                         starts="random", lifelong=True)
+env.reset(seed=0)
+rng = np.random.default_rng(0)
+peak = 0
+for _ in range(20):
+    env.step(dict(zip(env.agents, rng.integers(5, size=1024).tolist())))
+    peak = max(peak, resident_bytes())
+print((peak - before) / 2**20)
+"""
+    assert float(run_python(script)) < 200  # [MiB]; all pairs of robots took 787 MiB
