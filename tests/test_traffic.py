@@ -13,6 +13,8 @@ from warehouse_phys.traffic import (
     WAIT,
     check_clearance,
     corner_follows_are_safe,
+    granted_moves,
+    moves_refused_by_floor,
     resolve_moves,
 )
 
@@ -157,3 +159,21 @@ def test_the_clearance_check_names_the_tight_situation_and_the_bound():
     with pytest.raises(ValueError, match=r"round a corner: .* within sqrt\(0\.5\) - 2 x 0\.05"):
         check_clearance(0.6, 0.0, 0.0, 0.05)
     check_clearance(0.7, 0.0, 0.0, 0.05)  # too large for corner follows: none are granted
+
+
+def test_the_rule_names_the_bumps_the_floor_refuses():
+    grid = WarehouseGrid.from_layout(["S.#..", ".....", "..#.."])
+    rng = np.random.default_rng(2)
+    cells = np.array([(r, c) for r in range(3) for c in range(5) if (r, c) not in grid.shelves])
+    for _ in range(200):
+        n = int(rng.integers(1, len(cells)))
+        here = cells[rng.choice(len(cells), n, replace=False)]
+        actions = rng.integers(5, size=n)
+        parked = rng.random(n) < 0.2
+        index = here[:, 0] * grid.cols + here[:, 1]
+        grants = granted_moves(grid, index, actions, parked)
+        moves = zip(here.tolist(), actions.tolist(), parked.tolist(), strict=True)
+        expected = [a != WAIT and not p and grid.move(tuple(c), a) == tuple(c) for c, a, p in moves]
+        assert grants.bumped.tolist() == expected
+        assert moves_refused_by_floor(grid, here, actions, parked).tolist() == expected
+        assert not (grants.bumped & grants.refused).any()  # the floor's, not traffic's

@@ -29,7 +29,6 @@ from warehouse_phys.traffic import (
     check_clearance,
     corner_follows_are_safe,
     granted_moves,
-    moves_refused_by_floor,
     neighbour_table,
 )
 
@@ -402,13 +401,13 @@ class WarehouseFleetEnv(ParallelEnv):
         cols = self.grid.cols
         here = self._cells[:, 0] * cols + self._cells[:, 1]
         if self._on_floor.all():
-            moved, refused = granted_moves(
+            moved, refused, bumped = granted_moves(
                 self.grid, here, joint, self._parked, corner_follows=self.corner_follows
             )
         else:  # robots that left are no obstacles
             floor = self._on_floor
-            moved, refused = here.copy(), np.zeros(self.num_robots, dtype=bool)
-            moved[floor], refused[floor] = granted_moves(
+            moved, (refused, bumped) = here.copy(), np.zeros((2, self.num_robots), dtype=bool)
+            moved[floor], refused[floor], bumped[floor] = granted_moves(
                 self.grid, here[floor], joint[floor], self._parked[floor],
                 corner_follows=self.corner_follows,
             )  # fmt: skip
@@ -416,7 +415,7 @@ class WarehouseFleetEnv(ParallelEnv):
         np.divmod(moved, cols, out=(ends[:, 0], ends[:, 1]))
         snap_errors = gaps = None
         if self.physics:
-            ends, snap_errors, gaps = self._drive(joint, ends)
+            ends, snap_errors, gaps = self._drive(joint, ends, bumped)
         self._cells = ends
         self._steps += 1
 
@@ -626,15 +625,14 @@ class WarehouseFleetEnv(ParallelEnv):
             raise ValueError(f"unknown robot {agent!r}; the robots are {self.possible_agents}")
 
     def _drive(
-        self, joint: np.ndarray, ends: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Drive the granted moves (and bumps into walls) in the physics; hold the rest."""
+        self, joint: np.ndarray, ends: np.ndarray, bumped: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Drive the granted moves and the bumps into walls (the traffic rule's
+        :class:`~warehouse_phys.traffic.Grants`) in the physics; hold the rest."""
         cells = self._cells
         aims = cells + ACTION_DELTA_ARRAY[np.where(joint == WAIT, 0, joint)]
-        granted = (ends != cells).any(axis=1)
         # A move the floor refuses is driven too: the robot bumps and drives back, as alone.
-        bumps = moves_refused_by_floor(self.grid, cells, joint, self._parked)
-        hold = ~(granted | bumps)
+        hold = ~((ends != cells).any(axis=1) | bumped)
         aims[hold] = cells[hold]
         body_cells, snap_errors = self.world.move(aims)
         gaps = None

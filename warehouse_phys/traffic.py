@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -182,10 +183,22 @@ def resolve_moves(
             is not 0..4.
     """
     here, act, parked = _checked_joint(grid, cells, actions, parked)
-    ends, refused = granted_moves(grid, here, act, parked, corner_follows=corner_follows)
+    ends, refused, _ = granted_moves(grid, here, act, parked, corner_follows=corner_follows)
     rows_cols = np.empty((len(ends), 2), dtype=np.int64)
     np.divmod(ends, grid.cols, out=(rows_cols[:, 0], rows_cols[:, 1]))
     return rows_cols, refused
+
+
+class Grants(NamedTuple):
+    """What the rule decides for one joint step, robot by robot (``(N,)`` arrays)."""
+
+    #: The cell index (``row * cols + col``) each robot ends on.
+    ends: np.ndarray
+    #: Whether traffic turned a move the floor allows into a wait.
+    refused: np.ndarray
+    #: Whether the floor refused the move: a move into a wall or a shelf (rule 1),
+    #: which a robot in the physics twin drives, bumps and drives back.
+    bumped: np.ndarray
 
 
 def granted_moves(
@@ -195,15 +208,16 @@ def granted_moves(
     parked: np.ndarray,
     *,
     corner_follows: bool = True,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> Grants:
     """:func:`resolve_moves` on cell indices (``row * cols + col``), without checking its
-    arguments: for callers that keep them valid (the fleet). Returns the cell index each
-    robot ends on and the refused flags."""
+    arguments: for callers that keep them valid (the fleet). Returns every decision of
+    the rule (:class:`Grants`)."""
     n = len(here)
     table, scratch = _floor_tables(grid)
     act = np.where(parked, WAIT, actions)
     wanted = table[here, act]
     moving = wanted != here
+    bumped = ~moving & (act != WAIT)  # rule 1: the floor refuses
     robots = np.arange(n)
 
     # Rule 2: the lowest-numbered of the robots heading for one cell goes.
@@ -235,7 +249,7 @@ def granted_moves(
             leader = leader[leader]
         else:  # a cycle: 2**bit_length(n) >= n links, round it and beyond
             may_go &= may_go[leader]
-    return np.where(may_go, wanted, here), (wanted != here) & ~may_go
+    return Grants(np.where(may_go, wanted, here), (wanted != here) & ~may_go, bumped)
 
 
 def moves_refused_by_floor(
@@ -248,7 +262,7 @@ def moves_refused_by_floor(
     which the floor refuses as for a single robot (the physics twin drives it and
     drives back). ``(N,)`` bool; the arguments as for :func:`resolve_moves`."""
     here, act, parked = _checked_joint(grid, cells, actions, parked)
-    return (act != WAIT) & ~parked & (neighbour_table(grid)[here, act] == here)
+    return granted_moves(grid, here, act, parked).bumped
 
 
 def _checked_joint(
