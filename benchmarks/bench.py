@@ -411,8 +411,10 @@ def planner_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
 
 
 def fleet_scale_figures(sizes: list[int], robot_steps: int, rounds: int) -> list[Figure]:
-    """Robot-steps per second of the grid fleet as it grows, against the fleet of the
-    smallest size: the cost per robot should not grow with the fleet."""
+    """Robot-steps per second of the grid fleet as it grows, against the largest fleet
+    below 4,096 (1,024 in a full run): the cost per robot should stay within 1.5x of it
+    at every size."""
+    reference = max(n for n in sizes if n <= 1024)
     candidates = []
     for n in sizes:
         candidates.append(
@@ -420,8 +422,8 @@ def fleet_scale_figures(sizes: list[int], robot_steps: int, rounds: int) -> list
                 f"grid fleet of {n:,}",
                 "robot-steps/s",
                 fleet_scale_stepper(n, max(1, robot_steps // n)),
-                # The cost per robot within 1.5x of the smallest fleet's, up to 4,096.
-                target_ratio=1 / 1.5 if n != sizes[0] else None,
+                # The cost per robot within 1.5x of the reference fleet's, 64 to 4,096.
+                target_ratio=1 / 1.5 if n != reference else None,
                 target_value=1e6 if n == 1024 else None,
             )
         )
@@ -429,7 +431,90 @@ def fleet_scale_figures(sizes: list[int], robot_steps: int, rounds: int) -> list
         Candidate("PIBT plan, 192 robots on warehouse", "robot-steps/s",
                   planner_stepper(192, max(1, robot_steps // 192 // 4)))
     )  # fmt: skip
-    return interleaved(candidates, rounds, reference=f"grid fleet of {sizes[0]:,}")
+    return interleaved(candidates, rounds, reference=f"grid fleet of {reference:,}")
+
+
+def physics_fleet_stepper(
+    robots: int, joint_steps: int, track_gaps: bool, chipmunk: list[float] | None = None
+) -> Callable[[], float]:
+    """Random joint actions (WAIT included) for a lifelong physics fleet on a 64 x 64
+    floor, robots on random distinct cells; counts joint steps. With ``chipmunk``, each
+    run appends the CPU time spent inside chipmunk's ``cpSpaceStep`` to it."""
+    from warehouse_phys import batched_physics
+    from warehouse_phys.fleet import parallel_env
+
+    env = parallel_env(
+        num_robots=robots, physics=True, grid_rows=64, grid_cols=64, lifelong=True,
+        starts="random", max_cycles=10**9, track_gaps=track_gaps,
+    )  # fmt: skip
+    env.reset(seed=0)
+    names = env.possible_agents
+    joint = [
+        dict(zip(names, row, strict=True))
+        for row in np.random.default_rng(7).integers(5, size=(joint_steps, robots)).tolist()
+    ]
+    inside = [0.0]
+    stepping = batched_physics.space_stepping
+
+    def timed_stepping(space: object) -> tuple[Callable[..., None], object]:
+        step, handle = stepping(space)
+
+        def timed(handle: object, dt: float) -> None:
+            start = time.process_time()
+            step(handle, dt)
+            inside[0] += time.process_time() - start
+
+        return timed, handle
+
+    def run() -> float:
+        inside[0] = 0.0
+        step = env.step
+        if chipmunk is not None:  # time every physics step of this run, and only of it
+            batched_physics.space_stepping = timed_stepping
+        try:
+            for actions in joint:
+                step(actions)
+        finally:
+            batched_physics.space_stepping = stepping
+        if chipmunk is not None:
+            chipmunk.append(inside[0])
+        return len(joint)
+
+    return run
+
+
+def physics_fleet_figures(sizes: list[int], joint_steps: int, rounds: int) -> list[Figure]:
+    """Joint steps per second of the physics fleet with and without ``min_gap``, against
+    the fleet of the smallest size with it; and chipmunk's share of a joint step."""
+    candidates = []
+    for n in sizes:
+        steps = max(2, joint_steps * sizes[0] // n)
+        for track_gaps in (True, False):
+            candidates.append(
+                Candidate(
+                    f"physics fleet of {n:,}{'' if track_gaps else ', track_gaps=False'}",
+                    "joint steps/s",
+                    physics_fleet_stepper(n, steps, track_gaps),
+                )
+            )
+    figures = interleaved(candidates, rounds, reference=candidates[0].name)
+    for track_gaps in (True, False):  # timed apart: timing each physics step costs a little
+        chipmunk: list[float] = []
+        run = physics_fleet_stepper(256, max(2, joint_steps // 4), track_gaps, chipmunk)
+        shares = []
+        for _ in range(rounds):
+            start = time.process_time()
+            run()
+            shares.append(100 * chipmunk[-1] / (time.process_time() - start))
+        figures.append(
+            Figure(
+                f"chipmunk's share at 256{'' if track_gaps else ', track_gaps=False'}",
+                "% of the CPU time",
+                shares,
+                target_value=50,
+            )
+        )
+    return figures
 
 
 # ------------------------------------------------------------------ physics
@@ -597,6 +682,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         "fleet_joint_steps": 50 if args.quick else 1000,
         "fleet_scale_sizes": [64, 256] if args.quick else [64, 256, 1024, 4096],
         "fleet_scale_robot_steps": 2_000 if args.quick else 200_000,
+        "physics_fleet_sizes": [64, 256] if args.quick else [64, 256, 1024],
+        "physics_fleet_joint_steps": 8 if args.quick else 400,
     }
     sections = {
         f"stepping ({budget['actions']:,} random actions a round, resets included)": (
@@ -620,6 +707,11 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         "fleet at scale (grid twin, random joint actions, lifelong, 128 x 128)": (
             fleet_scale_figures(
                 budget["fleet_scale_sizes"], budget["fleet_scale_robot_steps"], rounds
+            )
+        ),
+        "physics fleet at scale (random joint actions, lifelong, 64 x 64)": (
+            physics_fleet_figures(
+                budget["physics_fleet_sizes"], budget["physics_fleet_joint_steps"], rounds
             )
         ),
         "physics (default settings)": physics_figures(rounds),
