@@ -101,6 +101,12 @@ class DistanceMaps:
         of evicted maps are reused), at most ``max_bytes``."""
         return len(self._goal_of_row) * self._map_bytes
 
+    @property
+    def open_floor(self) -> bool:
+        """Whether the floor has no shelf: every distance is then the Manhattan distance,
+        and no map is built."""
+        return self._open_floor
+
     def prepare(self, goals: np.ndarray) -> None:
         """Make sure the map of every goal in ``goals`` (cell indices) is kept; computes the
         missing ones, evicting the least recently used maps of other goals if needed.

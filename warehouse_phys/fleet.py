@@ -276,8 +276,9 @@ class WarehouseFleetEnv(ParallelEnv):
         )
 
         self.np_random, _ = seeding.np_random(None)
-        self._cells = np.zeros((n, 2), dtype=np.int64)
-        self._packages = np.zeros((n, 2), dtype=np.int64)
+        self._cells = np.zeros((n, 2), dtype=np.int64)  # and _here, as indices
+        self._packages = np.zeros((n, 2), dtype=np.int64)  # and _package_index
+        self._every_robot = _read_only(np.arange(n))
         self._parked = np.zeros(n, dtype=bool)
         self._on_floor = np.ones(n, dtype=bool)
         self._deliveries = np.zeros(n, dtype=np.int64)
@@ -289,6 +290,28 @@ class WarehouseFleetEnv(ParallelEnv):
         )
         if render_mode == "rgb_array":
             self._renderer.check_frame_size()
+
+    # ------------------------------------------------------------ the state
+    @property
+    def _cells(self) -> np.ndarray:
+        """Each robot's ``(row, col)``, kept with its index ``row * cols + col`` (``_here``)."""
+        return self._cell_rows_cols
+
+    @_cells.setter
+    def _cells(self, cells: np.ndarray) -> None:
+        self._cell_rows_cols = cells
+        self._here = cells[:, 0] * self.grid.cols + cells[:, 1]
+
+    @property
+    def _packages(self) -> np.ndarray:
+        """Each robot's package ``(row, col)``, kept with its index (``_package_index``);
+        changed in place by :meth:`_draw_new_packages`, which updates both."""
+        return self._package_rows_cols
+
+    @_packages.setter
+    def _packages(self, packages: np.ndarray) -> None:
+        self._package_rows_cols = packages
+        self._package_index = packages[:, 0] * self.grid.cols + packages[:, 1]
 
     # ------------------------------------------------------------ the public state
     @property
@@ -399,7 +422,7 @@ class WarehouseFleetEnv(ParallelEnv):
         live = self._live_indices()
         joint = self._checked_actions(actions, live)
         cols = self.grid.cols
-        here = self._cells[:, 0] * cols + self._cells[:, 1]
+        here = self._here
         if self._on_floor.all():
             moved, refused, bumped = granted_moves(
                 self.grid, here, joint, self._parked, corner_follows=self.corner_follows
@@ -416,15 +439,15 @@ class WarehouseFleetEnv(ParallelEnv):
         snap_errors = gaps = None
         if self.physics:
             ends, snap_errors, gaps = self._drive(joint, ends, bumped)
-        self._cells = ends
+        self._cell_rows_cols = ends  # the cells, their indices set below
         self._steps += 1
 
-        package = self._packages[:, 0] * cols + self._packages[:, 1]
         if self.physics:  # the cells read from the bodies (the same, as the tests prove)
             moved = ends[:, 0] * cols + ends[:, 1]
-        arrived = moved == package
+        self._here = moved
+        arrived = moved == self._package_index
         if len(live) < self.num_robots:  # the parked and the gone deliver no more
-            arrived &= np.isin(np.arange(self.num_robots), live)
+            arrived &= np.isin(self._every_robot, live)
         delivered = np.flatnonzero(arrived)
         self._deliveries[delivered] += 1
         if self.on_delivery == "new_package":
@@ -433,7 +456,7 @@ class WarehouseFleetEnv(ParallelEnv):
             self._parked[delivered] = self.on_delivery == "park"
             self._on_floor[delivered] = self.on_delivery == "park"
         agents = self.agents
-        arrived_live = arrived[live].tolist()
+        arrived_live = (arrived if len(live) == self.num_robots else arrived[live]).tolist()
         rewards = dict(zip(agents, map(float, arrived_live), strict=True))
         ends_robot = arrived_live if not self.lifelong else [False] * len(agents)
         terminations = dict(zip(agents, ends_robot, strict=True))
@@ -557,15 +580,16 @@ class WarehouseFleetEnv(ParallelEnv):
             return
         cols = self.grid.cols
         taken = np.zeros(self.grid.rows * cols, dtype=bool)
-        taken[self._cells[:, 0] * cols + self._cells[:, 1]] = True
+        taken[self._here] = True
         keep = np.ones(self.num_robots, dtype=bool)
         keep[robots] = False
-        taken[self._packages[keep, 0] * cols + self._packages[keep, 1]] = True
+        taken[self._package_index[keep]] = True
         rng = self.np_random
         before = rng.bit_generator.state
         cells = self._targets[rng.integers(len(self._targets), size=robots.size)]
         if not taken[cells].any() and (robots.size == 1 or np.unique(cells).size == robots.size):
             self._packages[robots, 0], self._packages[robots, 1] = np.divmod(cells, cols)
+            self._package_index[robots] = cells
             return
         rng.bit_generator.state = before
         for robot in robots.tolist():
@@ -578,10 +602,11 @@ class WarehouseFleetEnv(ParallelEnv):
                 cell = free[rng.integers(len(free))]
             taken[cell] = True
             self._packages[robot] = divmod(int(cell), cols)
+            self._package_index[robot] = cell
 
     def _live_indices(self) -> np.ndarray:
         if len(self.agents) == self.num_robots:
-            return np.arange(self.num_robots)
+            return self._every_robot
         return np.fromiter(map(self._index.__getitem__, self.agents), np.int64, len(self.agents))
 
     def _checked_actions(self, actions: object, live: np.ndarray) -> np.ndarray:
@@ -590,13 +615,16 @@ class WarehouseFleetEnv(ParallelEnv):
             raise TypeError(
                 f"actions must be a dict of robot to action, got {type(actions).__name__}"
             )
-        joint = np.full(self.num_robots, WAIT, dtype=np.int64)
         # The usual case first: every live robot, in order, with a plain integer.
         if list(actions) == self.agents and set(map(type, actions.values())) <= _INTEGER_TYPES:
             values = np.fromiter(actions.values(), np.int64, len(actions))
-            if ((values >= 0) & (values < FLEET_ACTIONS)).all():
+            if (values.view(np.uint64) < FLEET_ACTIONS).all():  # negatives wrap round: huge
+                if len(values) == self.num_robots:
+                    return values
+                joint = np.full(self.num_robots, WAIT, dtype=np.int64)
                 joint[live] = values
                 return joint
+        joint = np.full(self.num_robots, WAIT, dtype=np.int64)
         unknown = [agent for agent in actions if agent not in self.agents]
         if unknown:
             raise ValueError(
@@ -681,13 +709,15 @@ class WarehouseFleetEnv(ParallelEnv):
         snap_errors: np.ndarray | None,
         gaps: np.ndarray | None,
     ) -> dict[str, dict[str, Any]]:
-        cols = self.grid.cols
         all_live = len(live) == self.num_robots  # no copies in the usual case
-        cells = self._cells if all_live else self._cells[live]
-        packages = self._packages if all_live else self._packages[live]
-        optimal = self.distances.lookup(
-            cells[:, 0] * cols + cells[:, 1], packages[:, 0] * cols + packages[:, 1]
-        )
+        if self.distances.open_floor:  # Manhattan distances
+            cells = self._cells if all_live else self._cells[live]
+            packages = self._packages if all_live else self._packages[live]
+            optimal = np.abs(cells - packages).sum(axis=1)
+        elif all_live:
+            optimal = self.distances.lookup(self._here, self._package_index)
+        else:
+            optimal = self.distances.lookup(self._here[live], self._package_index[live])
         if not all_live:
             refused, deliveries = refused[live], self._deliveries[live]
         else:

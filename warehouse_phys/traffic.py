@@ -131,6 +131,8 @@ def neighbour_table(grid: WarehouseGrid) -> np.ndarray:
 def _floor_tables(grid: WarehouseGrid) -> tuple[np.ndarray, np.ndarray]:
     """The floor's neighbour table and a scratch array over its cells holding
     :data:`_NOBODY` between calls (so a joint step touches only its robots' cells)."""
+    if grid is _LAST_FLOOR[0]:  # the usual case: the same floor as the last call
+        return _LAST_FLOOR[1]
     key = (grid.rows, grid.cols, grid.layout)
     tables = _NEIGHBOUR_TABLES.pop(key, None)
     if tables is None:
@@ -153,6 +155,7 @@ def _floor_tables(grid: WarehouseGrid) -> tuple[np.ndarray, np.ndarray]:
     _NEIGHBOUR_TABLES[key] = tables  # most recently used last
     while len(_NEIGHBOUR_TABLES) > _NEIGHBOUR_TABLES_KEPT:
         del _NEIGHBOUR_TABLES[next(iter(_NEIGHBOUR_TABLES))]
+    _LAST_FLOOR[:] = [grid, tables]
     return tables
 
 
@@ -242,11 +245,11 @@ def granted_moves(
         if not corner_follows:
             may_go[follows] &= act[ahead] == act[follows]
         for _ in range(max(1, n).bit_length()):
-            if np.array_equal(leader[leader], leader):
-                may_go &= may_go[leader]
-                break
+            further = leader[leader]
             may_go &= may_go[leader]
-            leader = leader[leader]
+            if (further == leader).all():
+                break
+            leader = further
         else:  # a cycle: 2**bit_length(n) >= n links, round it and beyond
             may_go &= may_go[leader]
     return Grants(np.where(may_go, wanted, here), (wanted != here) & ~may_go, bumped)
@@ -305,3 +308,5 @@ _NEIGHBOUR_TABLES: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 _NOBODY = np.iinfo(np.int64).max
 #: Floors whose neighbour tables are kept (a 500 x 140 floor's is 2.8 MB).
 _NEIGHBOUR_TABLES_KEPT = 16
+#: The floor of the last call and its tables (floors are immutable: its tables stay right).
+_LAST_FLOOR: list = [None, None]
