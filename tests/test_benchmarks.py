@@ -28,7 +28,7 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     assert lines[0].startswith("median of 2 interleaved round(s), CPU time")
 
     def row(name):
-        (line,) = [line for line in lines if line.strip().startswith(name)]
+        (line,) = [line for line in lines if line.strip().startswith(f"{name} ")]
         return line
 
     ratio = r"\d+\.\d\dx \(\d+\.\d\d-\d+\.\d\d\)"
@@ -50,10 +50,14 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
         for n in (2, 8):
             assert re.search(rf"joint steps/s\s+{ratio}", row(f"fleet of {n}, {world}"))
     assert re.search(r">= 0\.333333x: (met|MISSED)$", row("fleet of 8, physics"))
-    assert row("grid fleet of 64").rstrip().endswith("reference")
+    assert row("grid fleet of 256").rstrip().endswith("reference")  # the largest below 4,096
     assert re.search(
-        rf"robot-steps/s\s+{ratio}\s+>= 0\.666667x: (met|MISSED)$", row("grid fleet of 256")
+        rf"robot-steps/s\s+{ratio}\s+>= 0\.666667x: (met|MISSED)$", row("grid fleet of 64")
     )
+    for name in ("physics fleet of 64, track_gaps=False", "physics fleet of 256"):
+        assert re.search(rf"joint steps/s\s+{ratio}", row(name))
+    for name in ("chipmunk's share at 256", "chipmunk's share at 256, track_gaps=False"):
+        assert re.search(r"% of the CPU time\s+>= 50 % of the CPU time: (met|MISSED)$", row(name))
     assert re.search(rf"robot-steps/s\s+{ratio}", row("PIBT plan, 192 robots on warehouse"))
     assert re.search(r" us\s+" + ratio, row("physics step (move loop)"))
     for name in ("one move", "a new world", "one reset (world.restart)"):
@@ -66,7 +70,7 @@ def test_benchmark_reports_every_figure_against_its_reference(tmp_path):
     assert results["machine"]["cpu_count"] >= 1
     assert results["timer"] == "time.process_time"
     figures = [f for section in results["sections"].values() for f in section]
-    assert len(figures) == 6 + 3 + 3 + 4 + 4 + 5 + 3 + 5 + 4
+    assert len(figures) == 6 + 3 + 3 + 4 + 4 + 5 + 3 + 6 + 5 + 4
     for figure in figures:
         assert len(figure["rounds"]) == results["rounds"] == 2
         assert figure["low"] <= figure["value"] <= figure["high"]

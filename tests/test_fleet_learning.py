@@ -96,6 +96,9 @@ def test_sampled_gaps_are_every_robots_closest_approach_and_need_the_physics():
     assert np.array_equal(gaps, again)  # seeded: the same run
     with pytest.raises(ValueError, match="only the physics world"):
         sample_fleet_gaps(fleet.parallel_env(num_robots=2), random_fleet_policy(1), 5, seed=0)
+    untracked = fleet.parallel_env(num_robots=2, physics=True, track_gaps=False)
+    with pytest.raises(ValueError, match="does not measure min_gap: make it with track_gaps"):
+        sample_fleet_gaps(untracked, random_fleet_policy(1), 5, seed=0)
 
 
 def test_a_neighbours_table_sees_adjacent_robots_and_round_trips(tmp_path):

@@ -382,15 +382,20 @@ def sample_fleet_gaps(
     env: WarehouseFleetEnv, policy: FleetPolicy, steps: int, *, seed: int
 ) -> np.ndarray:
     """``info["min_gap"]`` of every robot over ``steps`` joint steps of ``policy`` [cells]:
-    how close each robot's disc came to another's during each step.
+    how close each robot's disc came to another's during each step (``inf`` where no
+    robot was within reach, see
+    :meth:`~warehouse_phys.batched_physics.BatchedPhysicsWorld.closest_approach`).
 
     The fleet is reset with ``seed``, and again (unseeded) whenever an episode ends.
 
     Raises:
-        ValueError: if ``env`` is not the physics world (the grid twin has no discs).
+        ValueError: if ``env`` is not the physics world (the grid twin has no discs), or
+            does not track gaps (``track_gaps=False``).
     """
     if not env.physics:
         raise ValueError("only the physics world (physics=True) has discs that can come close")
+    if not env.track_gaps:
+        raise ValueError("this fleet does not measure min_gap: make it with track_gaps=True")
     observations, infos = env.reset(seed=seed)
     gaps = []
     for _ in range(steps):
