@@ -104,7 +104,7 @@ def accepted_settings(draw) -> dict:
 
 
 @pytest.mark.slow
-@settings(max_examples=60, suppress_health_check=[HealthCheck.filter_too_much,
+@settings(max_examples=40, suppress_health_check=[HealthCheck.filter_too_much,
                                                    HealthCheck.too_slow])  # fmt: skip
 @given(values=accepted_settings(), seed=st.integers(0, 2**16), n_robots=st.integers(2, 8))
 def test_every_accepted_setting_keeps_the_fleet_apart_and_on_the_grid_twins_cells(
@@ -185,7 +185,7 @@ def test_a_reset_restarts_the_world_and_holds_no_more_memory():
     env.reset(seed=1)
     assert env.world is world  # restarted, not rebuilt
     # Each rebuilt world used to keep a few kilobytes of chipmunk's arrays for good.
-    assert growth_per_reset(lambda seed: env.reset(seed=seed), 3000) < 100
+    assert growth_per_reset(lambda seed: env.reset(seed=seed), 2000) < 100
 
 
 def test_without_gap_tracking_the_fleet_moves_alike_and_reads_no_paths():

@@ -255,4 +255,4 @@ def test_a_reset_restarts_the_world_and_holds_no_more_memory():
     envs.reset(seed=1)
     assert envs.unwrapped.world is world  # restarted, not rebuilt
     # Each rebuilt world used to keep a few kilobytes of chipmunk's arrays for good.
-    assert growth_per_reset(lambda seed: envs.reset(seed=seed), 3000) < 100
+    assert growth_per_reset(lambda seed: envs.reset(seed=seed), 2000) < 100
