@@ -397,10 +397,10 @@ class BatchedPhysicsWorld:
             return self._read_robots()
         if first == 0:
             self._path = np.empty((self.config.steps_per_move, self.n_robots, 2))
-        path = self._path
+        path, read, space, rows = self._path, self._reader.read, self.space, self._robot_rows
         for index in range(first, first + steps):
             step(handle, dt)
-            path[index] = self._read_robots()
+            read(space).take(rows, axis=0, out=path[index])  # the robots' rows, in place
         return path[first + steps - 1].copy()
 
     def _read_robots(self) -> np.ndarray:
