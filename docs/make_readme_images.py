@@ -21,7 +21,7 @@ from warehouse_phys.recording import record_episode
 
 HERE = Path(__file__).resolve().parent
 #: The fleet GIF's seed: one whose three packages the learned fleet all delivers.
-FLEET_GIF_SEED = 5
+FLEET_GIF_SEED = 8
 
 
 def save(frame: np.ndarray, name: str) -> None:
