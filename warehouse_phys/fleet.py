@@ -423,9 +423,10 @@ class WarehouseFleetEnv(ParallelEnv):
         joint = self._checked_actions(actions, live)
         cols = self.grid.cols
         here = self._here
-        if self._on_floor.all():
+        if self.on_delivery != "leave" or self._on_floor.all():
+            parked = None if self.on_delivery == "new_package" else self._parked  # none park
             moved, refused, bumped = granted_moves(
-                self.grid, here, joint, self._parked, corner_follows=self.corner_follows
+                self.grid, here, joint, parked, corner_follows=self.corner_follows
             )
         else:  # robots that left are no obstacles
             floor = self._on_floor
@@ -448,13 +449,14 @@ class WarehouseFleetEnv(ParallelEnv):
         arrived = moved == self._package_index
         if len(live) < self.num_robots:  # the parked and the gone deliver no more
             arrived &= np.isin(self._every_robot, live)
-        delivered = np.flatnonzero(arrived)
-        self._deliveries[delivered] += 1
-        if self.on_delivery == "new_package":
-            self._draw_new_packages(delivered)
-        else:
-            self._parked[delivered] = self.on_delivery == "park"
-            self._on_floor[delivered] = self.on_delivery == "park"
+        delivered = arrived.nonzero()[0]
+        if delivered.size:
+            self._deliveries[delivered] += 1
+            if self.on_delivery == "new_package":
+                self._draw_new_packages(delivered)
+            else:
+                self._parked[delivered] = self.on_delivery == "park"
+                self._on_floor[delivered] = self.on_delivery == "park"
         agents = self.agents
         arrived_live = (arrived if len(live) == self.num_robots else arrived[live]).tolist()
         rewards = dict(zip(agents, map(float, arrived_live), strict=True))

@@ -208,24 +208,26 @@ def granted_moves(
     grid: WarehouseGrid,
     here: np.ndarray,
     actions: np.ndarray,
-    parked: np.ndarray,
+    parked: np.ndarray | None,
     *,
     corner_follows: bool = True,
 ) -> Grants:
     """:func:`resolve_moves` on cell indices (``row * cols + col``), without checking its
-    arguments: for callers that keep them valid (the fleet). Returns every decision of
-    the rule (:class:`Grants`)."""
+    arguments: for callers that keep them valid (the fleet; ``parked=None`` when no
+    robot can be parked). Returns every decision of the rule (:class:`Grants`)."""
     n = len(here)
     table, scratch = _floor_tables(grid)
-    act = np.where(parked, WAIT, actions)
+    act = actions if parked is None else np.where(parked, WAIT, actions)
     wanted = table[here, act]
-    moving = wanted != here
-    bumped = ~moving & (act != WAIT)  # rule 1: the floor refuses
+    free = wanted != here  # the moves the floor allows
+    bumped = (act != WAIT) > free  # rule 1: the floor refuses (a move, not allowed)
+    moving = free.copy()
     robots = np.arange(n)
 
     # Rule 2: the lowest-numbered of the robots heading for one cell goes.
-    heading = wanted[moving]
-    np.minimum.at(scratch, heading, robots[moving])
+    movers = moving.nonzero()[0]
+    heading = wanted[movers]
+    np.minimum.at(scratch, heading, movers)
     moving &= scratch[wanted] == robots
     scratch[heading] = _NOBODY
     # Rules 3 and 4. Robot i heads for robot j's cell: i goes only if j goes, they do
@@ -237,9 +239,10 @@ def granted_moves(
     ahead = np.where(moving, scratch[wanted], _NOBODY)
     scratch[here] = _NOBODY
     follows = ahead != _NOBODY
-    leader = np.where(follows, ahead, robots)
-    may_go = moving.copy()
+    may_go = moving
     if follows.any():
+        may_go = moving.copy()
+        leader = np.where(follows, ahead, robots)
         ahead = leader[follows]
         may_go[follows] &= moving[ahead] & (wanted[ahead] != here[follows])
         if not corner_follows:
@@ -252,7 +255,7 @@ def granted_moves(
             leader = further
         else:  # a cycle: 2**bit_length(n) >= n links, round it and beyond
             may_go &= may_go[leader]
-    return Grants(np.where(may_go, wanted, here), (wanted != here) & ~may_go, bumped)
+    return Grants(np.where(may_go, wanted, here), free > may_go, bumped)
 
 
 def moves_refused_by_floor(
