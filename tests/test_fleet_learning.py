@@ -22,7 +22,7 @@ from warehouse_phys.traffic import WAIT
 
 
 def test_training_is_seeded_and_reproducible_and_learns_to_deliver():
-    config = QLearningConfig(episodes=1000, seed=3)
+    config = QLearningConfig(episodes=600, seed=3)
     first = train_fleet(fleet.parallel_env(num_robots=2), config)
     second = train_fleet(fleet.parallel_env(num_robots=2), config)
     assert first.q.shape == (4, 5, 4, 5, 5)

@@ -104,7 +104,7 @@ def accepted_settings(draw) -> dict:
 
 
 @pytest.mark.slow
-@settings(max_examples=40, suppress_health_check=[HealthCheck.filter_too_much,
+@settings(max_examples=30, suppress_health_check=[HealthCheck.filter_too_much,
                                                    HealthCheck.too_slow])  # fmt: skip
 @given(values=accepted_settings(), seed=st.integers(0, 2**16), n_robots=st.integers(2, 8))
 def test_every_accepted_setting_keeps_the_fleet_apart_and_on_the_grid_twins_cells(
@@ -177,7 +177,7 @@ def test_the_robots_the_bound_refuses_would_touch_head_on(monkeypatch):
 # ------------------------------------------------------------- restarts, memory
 @pytest.mark.skipif(not CAN_MEASURE, reason="resident memory is read from Linux's /proc")
 def test_a_reset_restarts_the_world_and_holds_no_more_memory():
-    env = fleet.parallel_env(num_robots=16, physics=True, grid_rows=8, grid_cols=8,
+    env = fleet.parallel_env(num_robots=8, physics=True, grid_rows=6, grid_cols=6,
                              lifelong=True)  # fmt: skip
     env.reset(seed=0)
     world = env.world
