@@ -435,7 +435,7 @@ class WarehouseFleetEnv(ParallelEnv):
                 self.grid, here[floor], joint[floor], self._parked[floor],
                 corner_follows=self.corner_follows,
             )  # fmt: skip
-        ends = np.empty_like(self._cells)
+        ends = np.empty((self.num_robots, 2), dtype=np.int64)
         np.divmod(moved, cols, out=(ends[:, 0], ends[:, 1]))
         snap_errors = gaps = None
         if self.physics:
@@ -620,7 +620,7 @@ class WarehouseFleetEnv(ParallelEnv):
         # The usual case first: every live robot, in order, with a plain integer.
         if list(actions) == self.agents and set(map(type, actions.values())) <= _INTEGER_TYPES:
             values = np.fromiter(actions.values(), np.int64, len(actions))
-            if (values.view(np.uint64) < FLEET_ACTIONS).all():  # negatives wrap round: huge
+            if not np.count_nonzero(values.view(np.uint64) >= FLEET_ACTIONS):  # negatives: huge
                 if len(values) == self.num_robots:
                     return values
                 joint = np.full(self.num_robots, WAIT, dtype=np.int64)
@@ -712,10 +712,11 @@ class WarehouseFleetEnv(ParallelEnv):
         gaps: np.ndarray | None,
     ) -> dict[str, dict[str, Any]]:
         all_live = len(live) == self.num_robots  # no copies in the usual case
-        if self.distances.open_floor:  # Manhattan distances
+        if not self.grid.shelves:  # an open floor: Manhattan distances
             cells = self._cells if all_live else self._cells[live]
             packages = self._packages if all_live else self._packages[live]
-            optimal = np.abs(cells - packages).sum(axis=1)
+            apart = np.abs(cells - packages)
+            optimal = apart[:, 0] + apart[:, 1]
         elif all_live:
             optimal = self.distances.lookup(self._here, self._package_index)
         else:

@@ -222,7 +222,9 @@ def granted_moves(
     free = wanted != here  # the moves the floor allows
     bumped = (act != WAIT) > free  # rule 1: the floor refuses (a move, not allowed)
     moving = free.copy()
-    robots = np.arange(n)
+    robots = _ROBOT_NUMBERS.get(n)
+    if robots is None:  # 0..n-1, read-only, kept for fleets of this size
+        robots = _ROBOT_NUMBERS[n] = _read_only_range(n)
 
     # Rule 2: the lowest-numbered of the robots heading for one cell goes.
     movers = moving.nonzero()[0]
@@ -240,7 +242,7 @@ def granted_moves(
     scratch[here] = _NOBODY
     follows = ahead != _NOBODY
     may_go = moving
-    if follows.any():
+    if np.count_nonzero(follows):  # (cheaper than .any() on a few robots)
         may_go = moving.copy()
         leader = np.where(follows, ahead, robots)
         ahead = leader[follows]
@@ -250,7 +252,7 @@ def granted_moves(
         for _ in range(max(1, n).bit_length()):
             further = leader[leader]
             may_go &= may_go[leader]
-            if (further == leader).all():
+            if not np.count_nonzero(further != leader):
                 break
             leader = further
         else:  # a cycle: 2**bit_length(n) >= n links, round it and beyond
@@ -311,5 +313,17 @@ _NEIGHBOUR_TABLES: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 _NOBODY = np.iinfo(np.int64).max
 #: Floors whose neighbour tables are kept (a 500 x 140 floor's is 2.8 MB).
 _NEIGHBOUR_TABLES_KEPT = 16
+#: ``arange(n)`` of the fleet sizes seen (a few at most; cleared when it grows past 16).
+_ROBOT_NUMBERS: dict[int, np.ndarray] = {}
+
+
+def _read_only_range(n: int) -> np.ndarray:
+    if len(_ROBOT_NUMBERS) >= 16:
+        _ROBOT_NUMBERS.clear()
+    robots = np.arange(n)
+    robots.flags.writeable = False
+    return robots
+
+
 #: The floor of the last call and its tables (floors are immutable: its tables stay right).
 _LAST_FLOOR: list = [None, None]
