@@ -238,13 +238,13 @@ def granted_moves(
     # i goes iff every robot down its chain (round its cycle) may go, an AND along the
     # links taken by pointer doubling.
     scratch[here] = robots
-    ahead = np.where(moving, scratch[wanted], _NOBODY)
+    occupant = scratch[wanted]  # the robot on the cell each robot heads for, if any
     scratch[here] = _NOBODY
-    follows = ahead != _NOBODY
+    follows = (occupant != _NOBODY) & moving
     may_go = moving
     if np.count_nonzero(follows):  # (cheaper than .any() on a few robots)
         may_go = moving.copy()
-        leader = np.where(follows, ahead, robots)
+        leader = np.where(follows, occupant, robots)
         ahead = leader[follows]
         may_go[follows] &= moving[ahead] & (wanted[ahead] != here[follows])
         if not corner_follows:
