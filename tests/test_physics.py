@@ -481,7 +481,7 @@ MAZE = WarehouseGrid.from_layout(["S.#....", "..#.##.", "..#..#.", "....##.", "#
 
 
 @pytest.mark.slow
-@settings(max_examples=400)
+@settings(max_examples=300)
 @given(values=physics_settings(), seed=st.integers(0, 2**32 - 1))
 def test_every_accepted_setting_keeps_every_promise(values, seed):
     """Refused with ValueError or TypeError, or 1200 random actions on two floors keep
