@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, reject, settings
 from hypothesis import strategies as st
 
 with warnings.catch_warnings():
@@ -97,8 +97,6 @@ def accepted_settings(draw) -> dict:
     try:
         fleet.parallel_env(num_robots=1, physics=True, **values)
     except (ValueError, TypeError):
-        from hypothesis import reject
-
         reject()
     return values
 
