@@ -2,8 +2,11 @@
 worlds were made to restart instead of being rebuilt and their gap diagnostic replaced.
 
 ``python -m tests.golden_physics`` rewrites ``tests/golden_physics.npz``;
-``tests/test_golden.py`` checks that both still produce these runs bit for bit.
-Regenerate only for an intended change of behaviour, and say so in the commit.
+``tests/test_golden.py`` checks that both still produce these runs bit for bit. The
+recorded ``min_gap`` is the all-pairs value of the code before the change (the test
+holds today's, over the robots within reach, to it for every close approach); a new
+recording would record today's. Regenerate only for an intended change of behaviour,
+and say so in the commit.
 """
 
 from __future__ import annotations

@@ -205,6 +205,8 @@ def test_without_gap_tracking_the_fleet_moves_alike_and_reads_no_paths():
         plain.move_frames()
     with pytest.raises(TypeError, match="track_gaps must be a bool"):
         fleet.parallel_env(track_gaps=1)
+    with pytest.raises(AttributeError):  # fixed when built: the world reads as it was made
+        plain.track_gaps = True
     # Frames of the motion still come when asked for.
     framed = fleet.parallel_env(track_gaps=False, render_mode="rgb_array", **kwargs)
     framed.reset(seed=3)

@@ -7,6 +7,7 @@ import pytest
 from tests.golden import GOLDEN_FILE, SCENARIOS, run
 from tests.golden_physics import FLEET_SCENARIOS, VECTOR_SCENARIOS, run_fleet, run_vector
 from tests.golden_physics import GOLDEN_FILE as GOLDEN_PHYSICS_FILE
+from warehouse_phys import batched_physics
 
 
 @pytest.mark.parametrize(("name", "env_id", "kwargs", "seed", "n_actions"), SCENARIOS,
@@ -52,5 +53,25 @@ def test_the_physics_vector_env_replays_its_golden_run(name, num_envs, seed, ste
     expected = _golden(name)
     actual = run_vector(num_envs, seed, steps)
     assert sorted(actual) == sorted(expected)
+    for key, value in expected.items():
+        assert actual[key].tobytes() == value.tobytes(), key
+
+
+def test_without_pymunks_internals_the_physics_worlds_restart_alike(monkeypatch):
+    """Where pymunk's internals are out of reach, a restart cannot clear the space's last
+    time step: with every joint and contact new there is nothing to warm-start, and the
+    fleet and the vector env still replay their golden runs."""
+    monkeypatch.setattr(batched_physics, "CAN_RESTART", False)
+
+    def cannot(space: object) -> None:
+        raise RuntimeError("this pymunk cannot clear a space's time step")
+
+    monkeypatch.setattr(batched_physics, "clear_time_step", cannot)
+    name, kwargs, seeds, steps = FLEET_SCENARIOS[0]
+    expected, actual = _golden(name), run_fleet(kwargs, seeds, steps)
+    for key in ("cells", "paths", "snap_error", "reward"):
+        assert actual[key].tobytes() == expected[key].tobytes(), key
+    name, num_envs, seed, steps = VECTOR_SCENARIOS[0]
+    expected, actual = _golden(name), run_vector(num_envs, seed, steps)
     for key, value in expected.items():
         assert actual[key].tobytes() == value.tobytes(), key

@@ -152,11 +152,15 @@ def test_the_clearance_check_names_the_tight_situation_and_the_bound():
                r"a margin of 0\.02 \(0\.62\); the diameter may be at most 0\.58 cells")  # fmt: skip
     with pytest.raises(ValueError, match=message):
         check_clearance(0.6, 0.2, 0.0, 0.0)
-    with pytest.raises(ValueError, match=message):  # a bump's return counts the same
-        check_clearance(0.6, 0.0, 0.2, 0.0)
+    with pytest.raises(ValueError, match=r"bumping back to back come within 1 - 2 x 0\.2 "):
+        check_clearance(0.6, 0.0, 0.2, 0.0)  # a bump's return counts the same
     check_clearance(0.58, 0.2, 0.0, 0.0)  # the largest diameter allowed
+    with pytest.raises(ValueError, match=r"= -0\.2 cells, .*; no robot is small enough for"):
+        check_clearance(0.1, 0.6, 0.0, 0.0)  # no diameter would do: none is offered
     # Drifting sideways narrows a corner follow: refused where corner follows are granted.
-    with pytest.raises(ValueError, match=r"round a corner: .* within sqrt\(0\.5\) - 2 x 0\.05"):
+    corner = (r"round a corner: .* within sqrt\(0\.5\) - 2 x 0\.05 = 0\.607 cells, less than "
+              r"0\.62; the diameter may be at most 0\.587 cells, or at least 0\.657")  # fmt: skip
+    with pytest.raises(ValueError, match=corner):
         check_clearance(0.6, 0.0, 0.0, 0.05)
     check_clearance(0.7, 0.0, 0.0, 0.05)  # too large for corner follows: none are granted
 

@@ -35,6 +35,7 @@ from scipy.spatial import cKDTree
 
 from warehouse_phys.grid import ACTION_DELTAS, WarehouseGrid
 from warehouse_phys.physics import (
+    CAN_RESTART,
     WALL_THICKNESS,
     PhysicsConfig,
     RobotBodies,
@@ -317,8 +318,12 @@ class BatchedPhysicsWorld:
         centre_xy = self._centres(starts, robots)
         for robot, xy in zip(robots.tolist(), centre_xy.tolist(), strict=True):
             self.bodies[robot] = renew_robot(self.space, self.config, self.bodies[robot], xy)
-        if len(robots) == self.n_robots and (np.sort(robots) == np.arange(self.n_robots)).all():
-            clear_time_step(self.space)  # every robot anew: the space's next step is a first
+        everyone = len(robots) == self.n_robots and (np.sort(robots) == np.arange(len(robots)))
+        if CAN_RESTART and np.all(everyone):
+            # Every robot anew: the space's next step is a first. (Without pymunk's
+            # internals it keeps its last step; with every joint and contact new, there
+            # is no impulse for it to warm-start anyway.)
+            clear_time_step(self.space)
         self.cells = cells
         self._move_starts = self._move_starts.copy()
         self._move_starts[robots] = starts
@@ -354,12 +359,15 @@ class BatchedPhysicsWorld:
 
         Compared, at every physics step of the move: the robots on the same floor
         whose cells at its start were at most ``reach`` steps apart along rows and
-        columns (a k-d tree finds them; robots farther apart cannot meet, see
-        :data:`GAP_REACH`). O(N x steps) array operations.
+        columns (a k-d tree finds them). Robots farther apart cannot touch when the
+        fleet's clearance check holds (:data:`GAP_REACH`), so every approach that
+        matters is measured, exactly; robots out of reach are not (their discs stay
+        at least sqrt(2) (1 - e) - d cells apart, for diameter d and a controller that
+        carries a robot e past its aims). O(N x steps) array operations.
 
         Returns:
-            ``(N,)`` float64: each robot's smallest distance, ``inf`` for a robot
-            with no other compared (and for every robot before the first move).
+            ``(N,)`` float64: each robot's smallest distance to a robot within reach,
+            ``inf`` for a robot with none (and for every robot before the first move).
 
         Raises:
             RuntimeError: if the world does not record paths.
@@ -369,8 +377,10 @@ class BatchedPhysicsWorld:
         closest = np.full(self.n_robots, np.inf)
         if self.n_robots < 2 or not len(self._path):
             return closest
-        tree = cKDTree(self._move_starts)
-        pairs = tree.query_pairs(reach, p=1, output_type="ndarray")
+        starts = self._move_starts
+        if self.n_floors > 1:  # each floor where it lies: more than 3 cells from the next
+            starts = starts + self._origin[:, ::-1] / self._size
+        pairs = cKDTree(starts).query_pairs(reach, p=1, output_type="ndarray")
         first, second = pairs[:, 0], pairs[:, 1]
         if self.n_floors > 1:
             same = self.floor_of[first] == self.floor_of[second]

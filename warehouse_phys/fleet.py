@@ -124,13 +124,14 @@ class WarehouseFleetEnv(ParallelEnv):
     ``infos[robot]`` holds ``optimal_steps`` (to its own package, ignoring the
     other robots), ``refused`` (whether traffic turned its move into a wait),
     ``deliveries`` (packages delivered this episode) and, in the physics world,
-    ``snap_error`` and ``min_gap``: the smallest distance between its disc and
-    another robot's during the step [cells] (negative: the discs overlapped;
-    ``inf``: no robot within reach,
-    :data:`~warehouse_phys.batched_physics.GAP_REACH` cells, at the start of the
-    step). It costs a read of every body after each physics step and a
-    comparison of the robots within reach; ``track_gaps=False`` leaves both out,
-    and ``min_gap`` with them.
+    ``snap_error`` and ``min_gap``: the smallest distance during the step between
+    its disc and the disc of a robot that started the step within reach, at most
+    :data:`~warehouse_phys.batched_physics.GAP_REACH` rows and columns away (the
+    only robots it can touch) [cells]; negative: the discs overlapped; ``inf``:
+    no robot within reach. Robots out of reach stay farther apart than
+    ``sqrt(2) (1 - e) - d`` and are not measured. It costs a read of every body
+    after each physics step and a comparison of the robots within reach;
+    ``track_gaps=False`` leaves both out, and ``min_gap`` with them.
 
     Planners and evaluators read the fleet through read-only arrays:
     :attr:`robot_cells` and :attr:`package_cells` ``(N, 2)``, :attr:`parked`,
@@ -230,9 +231,7 @@ class WarehouseFleetEnv(ParallelEnv):
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.num_robots = int(num_robots)
         self.physics = physics
-        #: Whether a physics step measures ``min_gap`` (reading every body after each
-        #: physics step); frames of the motion need the same reads.
-        self.track_gaps = track_gaps
+        self._track_gaps = track_gaps
         self.on_delivery = "new_package" if lifelong else on_delivery or "park"
         self.observation = observation
         self.render_mode = render_mode
@@ -314,6 +313,12 @@ class WarehouseFleetEnv(ParallelEnv):
         self._package_index = packages[:, 0] * self.grid.cols + packages[:, 1]
 
     # ------------------------------------------------------------ the public state
+    @property
+    def track_gaps(self) -> bool:
+        """Whether a physics step measures ``min_gap`` (reading every body after each
+        physics step; frames of the motion need the same reads). Fixed when built."""
+        return self._track_gaps
+
     @property
     def lifelong(self) -> bool:
         """Whether a robot gets a new package on delivery (``on_delivery="new_package"``)."""

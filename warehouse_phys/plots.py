@@ -218,8 +218,10 @@ def snap_error_figure(errors: np.ndarray, bound: float, title: str = "") -> Figu
 
 
 def fleet_gap_figure(gaps: np.ndarray, config: PhysicsConfig, title: str = "") -> Figure:
-    """A histogram of how close robots' discs came to each other [cells] (``min_gap``):
-    0 is touching; the line marks a corner follow's gap, the closest the traffic rule allows."""
+    """A histogram of how close robots' discs came to each other [cells] (``min_gap``, the
+    closest approach of each robot to the robots within reach; ``inf`` values are left
+    out): 0 is touching; the line marks a corner follow's gap, the closest the traffic
+    rule allows."""
     from warehouse_phys.physics import COLLISION_SLOP
     from warehouse_phys.traffic import CORNER_FOLLOW_DISTANCE
 
@@ -235,7 +237,7 @@ def fleet_gap_figure(gaps: np.ndarray, config: PhysicsConfig, title: str = "") -
     ax.axvline(0.0, color="C3", linestyle="--", label="discs touching")
     ax.axvline(corner, color="C2", linestyle=":", label=f"corner follow {corner:.3f}")
     ax.axvline(gaps.min(), color="C1", label=f"closest {gaps.min():.3f}")
-    ax.set_xlabel("smallest gap between two robots' discs during a step [cells]")
+    ax.set_xlabel("smallest gap to a robot within reach during a step [cells]")
     ax.set_ylabel("robot-steps")
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(alpha=0.3)

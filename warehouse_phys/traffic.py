@@ -34,7 +34,7 @@ the centres of two robots in a granted step come no closer than [cells]:
 
 - a straight follow at one cell: ``1 - 2s`` (the same motion, one cell apart);
 - a corner follow: ``sqrt(0.5) - 2s`` (see rule 4);
-- a robot passing beside one that waits, bumps or passes: ``1 - s`` or more;
+- a robot passing beside one that waits, bumps or passes: ``1 - 2s`` or more;
 - a robot entering the cell next to one that waits (converging robots where one
   goes and the others wait) or that bumps back towards it: ``1 - e``;
 - two robots entering neighbouring cells head-on, or bumping back to back: ``1 - 2e``.
@@ -86,7 +86,7 @@ def check_clearance(
 
     Raises:
         ValueError: naming the tightest situation, its closest approach, the bound
-            (``d + CLEARANCE_MARGIN``) and the largest diameter this controller allows.
+            (``d + CLEARANCE_MARGIN``) and the diameters this controller allows, if any.
     """
     reach = max(overshoot, bump_overshoot, drift)
     need = robot_diameter + CLEARANCE_MARGIN
@@ -94,22 +94,41 @@ def check_clearance(
         f"the controller carries a robot up to {overshoot:.3g} cells past a free move's "
         f"centre, {bump_overshoot:.3g} past its own after a bump and {drift:.3g} sideways"
     )
+    advice = (
+        "make the controller overshoot less (lower max_speed or max_force, raise "
+        "robot_mass or floor_damping)"
+    )
     if 1 - 2 * reach < need:
+        situation = (
+            "two robots entering neighbouring cells head-on"
+            if reach == overshoot
+            else "two robots bumping back to back"
+            if reach == bump_overshoot
+            else "two robots passing side by side"
+        )
+        largest = 1 - 2 * reach - CLEARANCE_MARGIN
+        allowed = (
+            f"the diameter may be at most {largest:.3g} cells (robot_radius over cell_size "
+            f"at most half that), or {advice}"
+            if largest > 0
+            else f"no robot is small enough for this controller: {advice}"
+        )
         raise ValueError(
             f"robots of diameter {robot_diameter:.3g} cells are too large for this "
-            f"controller in a fleet: {motion}, so two robots entering neighbouring cells "
-            f"head-on come within 1 - 2 x {reach:.3g} = {1 - 2 * reach:.3g} cells, less than "
-            f"the diameter plus a margin of {CLEARANCE_MARGIN} ({need:.3g}); the diameter "
-            f"may be at most {1 - 2 * reach - CLEARANCE_MARGIN:.3g} cells (robot_radius over "
-            "cell_size at most half that), or make the controller overshoot less (lower "
-            "max_speed or max_force, raise robot_mass or floor_damping)"
+            f"controller in a fleet: {motion}, so {situation} come within 1 - 2 x "
+            f"{reach:.3g} = {1 - 2 * reach:.3g} cells, less than the diameter plus a "
+            f"margin of {CLEARANCE_MARGIN} ({need:.3g}); {allowed}"
         )
     corner = CORNER_FOLLOW_DISTANCE - 2 * drift
     if corner_follows_are_safe(robot_diameter) and corner < need:
+        smallest_without = CORNER_FOLLOW_DISTANCE - CORNER_FOLLOW_MARGIN
         raise ValueError(
             f"robots of diameter {robot_diameter:.3g} cells would touch following each "
             f"other round a corner: {motion}, so they come within sqrt(0.5) - 2 x "
-            f"{drift:.3g} = {corner:.3g} cells, less than {need:.3g}"
+            f"{drift:.3g} = {corner:.3g} cells, less than {need:.3g}; the diameter may be "
+            f"at most {corner - CLEARANCE_MARGIN:.3g} cells, or at least "
+            f"{smallest_without:.3g} (robots that large do not follow round corners), or "
+            "make the controller drift less sideways"
         )
 
 
