@@ -322,6 +322,14 @@ def physics_vector_figures(sizes: list[int], robot_actions: int, rounds: int) ->
 
 
 # -------------------------------------------------------------------- fleet
+def random_joint_actions(env: object, joint_steps: int, seed: int) -> list[dict[str, int]]:
+    """``joint_steps`` joint actions (WAIT included) for every robot of the fleet ``env``,
+    drawn uniformly from their own generator."""
+    names = env.possible_agents
+    rows = np.random.default_rng(seed).integers(5, size=(joint_steps, len(names))).tolist()
+    return [dict(zip(names, row, strict=True)) for row in rows]
+
+
 def fleet_stepper(robots: int, physics: bool, joint_steps: int) -> Callable[[], float]:
     """Random joint actions (WAIT included) for a lifelong fleet on an 8 x 10 floor."""
     from warehouse_phys.fleet import parallel_env
@@ -331,11 +339,7 @@ def fleet_stepper(robots: int, physics: bool, joint_steps: int) -> Callable[[], 
         max_cycles=10**9,
     )  # fmt: skip
     env.reset(seed=0)
-    names = env.possible_agents
-    joint = [
-        dict(zip(names, row, strict=True))
-        for row in np.random.default_rng(4).integers(5, size=(joint_steps, robots)).tolist()
-    ]
+    joint = random_joint_actions(env, joint_steps, seed=4)
 
     def run() -> float:
         step = env.step
@@ -375,11 +379,7 @@ def fleet_scale_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
         starts="random", max_cycles=10**9,
     )  # fmt: skip
     env.reset(seed=0)
-    names = env.possible_agents
-    joint = [
-        dict(zip(names, row, strict=True))
-        for row in np.random.default_rng(6).integers(5, size=(joint_steps, robots)).tolist()
-    ]
+    joint = random_joint_actions(env, joint_steps, seed=6)
 
     def run() -> float:
         step = env.step
@@ -448,11 +448,7 @@ def physics_fleet_stepper(
         starts="random", max_cycles=10**9, track_gaps=track_gaps,
     )  # fmt: skip
     env.reset(seed=0)
-    names = env.possible_agents
-    joint = [
-        dict(zip(names, row, strict=True))
-        for row in np.random.default_rng(7).integers(5, size=(joint_steps, robots)).tolist()
-    ]
+    joint = random_joint_actions(env, joint_steps, seed=7)
     inside = [0.0]
     stepping = batched_physics.space_stepping
 

@@ -23,6 +23,11 @@ def test_the_environment_replays_its_golden_trajectory(name, env_id, kwargs, see
         assert actual[key].tobytes() == value.tobytes(), key
 
 
+def _assert_bit_identical(expected: dict, actual: dict, keys: list[str]) -> None:
+    for key in keys:
+        assert actual[key].tobytes() == expected[key].tobytes(), key
+
+
 def _golden(name: str) -> dict[str, np.ndarray]:
     with np.load(GOLDEN_PHYSICS_FILE) as golden:
         return {key.split("/", 1)[1]: golden[key] for key in golden.files
@@ -35,16 +40,15 @@ def test_the_physics_fleet_replays_its_golden_run(name, kwargs, seeds, steps):
     expected = _golden(name)
     actual = run_fleet(kwargs, seeds, steps)
     assert sorted(actual) == sorted(expected)
-    for key, value in expected.items():
-        if key == "min_gap":  # recorded over every pair; now over the robots within reach
-            # Every approach closer than sqrt(2) - d (the closest two robots out of reach
-            # can come) is exact; -1 marks a robot done, without infos.
-            close = value < 0.8
-            assert actual[key][close].tobytes() == value[close].tobytes()
-            assert (actual[key][~close] >= value[~close]).all()  # farther: a subset's minimum
-            assert close.any()
-        else:
-            assert actual[key].tobytes() == value.tobytes(), key
+    _assert_bit_identical(expected, actual, [key for key in expected if key != "min_gap"])
+    # min_gap was recorded over every pair, and is now over the robots within reach: every
+    # approach closer than sqrt(2) - d (the closest two robots out of reach can come) is
+    # exact; -1 marks a robot done, without infos.
+    recorded, measured = expected["min_gap"], actual["min_gap"]
+    close = recorded < 0.8
+    assert measured[close].tobytes() == recorded[close].tobytes()
+    assert (measured[~close] >= recorded[~close]).all()  # farther: a subset's minimum
+    assert close.any()
 
 
 @pytest.mark.parametrize(("name", "num_envs", "seed", "steps"), VECTOR_SCENARIOS,
@@ -53,8 +57,7 @@ def test_the_physics_vector_env_replays_its_golden_run(name, num_envs, seed, ste
     expected = _golden(name)
     actual = run_vector(num_envs, seed, steps)
     assert sorted(actual) == sorted(expected)
-    for key, value in expected.items():
-        assert actual[key].tobytes() == value.tobytes(), key
+    _assert_bit_identical(expected, actual, list(expected))
 
 
 def test_without_pymunks_internals_the_physics_worlds_restart_alike(monkeypatch):
@@ -68,10 +71,9 @@ def test_without_pymunks_internals_the_physics_worlds_restart_alike(monkeypatch)
 
     monkeypatch.setattr(batched_physics, "clear_time_step", cannot)
     name, kwargs, seeds, steps = FLEET_SCENARIOS[0]
-    expected, actual = _golden(name), run_fleet(kwargs, seeds, steps)
-    for key in ("cells", "paths", "snap_error", "reward"):
-        assert actual[key].tobytes() == expected[key].tobytes(), key
+    expected = _golden(name)
+    trajectory = ["cells", "paths", "snap_error", "reward"]
+    _assert_bit_identical(expected, run_fleet(kwargs, seeds, steps), trajectory)
     name, num_envs, seed, steps = VECTOR_SCENARIOS[0]
-    expected, actual = _golden(name), run_vector(num_envs, seed, steps)
-    for key, value in expected.items():
-        assert actual[key].tobytes() == value.tobytes(), key
+    expected = _golden(name)
+    _assert_bit_identical(expected, run_vector(num_envs, seed, steps), list(expected))
