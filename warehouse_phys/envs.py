@@ -22,8 +22,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from warehouse_phys.grid import Action, Cell, WarehouseGrid, check_size, move_table
-from warehouse_phys.layouts import resolve_layout
+from warehouse_phys.grid import Action, Cell, move_table, refuse_durations
+from warehouse_phys.layouts import make_grid
 from warehouse_phys.physics import CAN_RESTART, PhysicsConfig, PhysicsWorld, check_controller
 from warehouse_phys.render import (
     DEFAULT_CELL_PX,
@@ -748,28 +748,6 @@ def onehot(cells: np.ndarray, rows: int, cols: int) -> np.ndarray:
     return out
 
 
-def make_grid(
-    grid_rows: int | None, grid_cols: int | None, layout: str | Sequence[str] | None
-) -> WarehouseGrid:
-    """The empty ``grid_rows`` x ``grid_cols`` floor (4 x 5 by default), or the layout's."""
-    refuse_durations(grid_rows=grid_rows, grid_cols=grid_cols)
-    if layout is None:
-        return WarehouseGrid(
-            4 if grid_rows is None else grid_rows, 5 if grid_cols is None else grid_cols
-        )
-    for name, given in (("grid_rows", grid_rows), ("grid_cols", grid_cols)):
-        if given is not None:
-            check_size(name, given)
-    grid = resolve_layout(layout)
-    for name, given, actual in (
-        ("grid_rows", grid_rows, grid.rows),
-        ("grid_cols", grid_cols, grid.cols),
-    ):
-        if given is not None and given != actual:
-            raise ValueError(f"{name}={given} contradicts the layout, which has {actual}")
-    return grid
-
-
 def _checked_action(action: object) -> Action:
     """The :class:`Action` for ``action``, or a ``TypeError``/``ValueError`` naming it."""
     kind = type(action)
@@ -794,17 +772,6 @@ def _checked_action(action: object) -> Action:
             f"invalid action {action!r}: expected an integer in 0..3 ({_ACTION_RANGE})"
         )
     return _ACTIONS[value]
-
-
-def refuse_durations(**arguments: object) -> None:
-    """Refuse a ``numpy.timedelta64`` given as a count, which numpy counts as an integer.
-
-    Raises:
-        TypeError: naming the first such argument.
-    """
-    for name, value in arguments.items():
-        if isinstance(value, np.timedelta64):
-            raise TypeError(f"{name} must be an integer, got {value!r} (timedelta64)")
 
 
 def _is_integer(value: object) -> bool:

@@ -19,8 +19,8 @@ from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from warehouse_phys.batched_physics import ACTION_DELTA_ARRAY, BatchedPhysicsWorld
 from warehouse_phys.distances import DistanceMaps
-from warehouse_phys.envs import make_grid, onehot
-from warehouse_phys.layouts import suggested_time_limit
+from warehouse_phys.envs import onehot
+from warehouse_phys.layouts import make_grid, suggested_time_limit
 from warehouse_phys.physics import check_controller, physics_config_from
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer
 from warehouse_phys.traffic import (

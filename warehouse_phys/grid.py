@@ -41,6 +41,9 @@ ACTION_DELTAS: tuple[tuple[int, int], ...] = (
     (-1, 0),  # UP
 )
 
+#: The default floor [cells]: 4 rows of 5 cells, the size every environment starts with.
+DEFAULT_ROWS, DEFAULT_COLS = 4, 5
+
 #: Where the robot stands after every reset.
 START_CELL = Cell(0, 0)
 
@@ -462,3 +465,14 @@ def check_size(name: str, value: object) -> int:
             f"{MAX_SIDE} x {MAX_SIDE} cells"
         )
     return int(value)
+
+
+def refuse_durations(**arguments: object) -> None:
+    """Refuse a ``numpy.timedelta64`` given as a count, which numpy counts as an integer.
+
+    Raises:
+        TypeError: naming the first such argument.
+    """
+    for name, value in arguments.items():
+        if isinstance(value, np.timedelta64):
+            raise TypeError(f"{name} must be an integer, got {value!r} (timedelta64)")

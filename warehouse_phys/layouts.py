@@ -26,7 +26,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from warehouse_phys.atomic import atomic_write_text
-from warehouse_phys.grid import MAX_SIDE, WarehouseGrid
+from warehouse_phys.grid import (
+    DEFAULT_COLS,
+    DEFAULT_ROWS,
+    MAX_SIDE,
+    WarehouseGrid,
+    check_size,
+    refuse_durations,
+)
 
 
 @dataclass(frozen=True)
@@ -392,3 +399,27 @@ def write_movingai(grid: WarehouseGrid, path: str | os.PathLike[str]) -> Path:
             rows[r][c] = MOVINGAI_ENDPOINT
     header = f"type octile\nheight {grid.rows}\nwidth {grid.cols}\nmap\n"
     return atomic_write_text(path, header + "".join("".join(row) + "\n" for row in rows))
+
+
+def make_grid(
+    grid_rows: int | None, grid_cols: int | None, layout: str | Sequence[str] | None
+) -> WarehouseGrid:
+    """The empty ``grid_rows`` x ``grid_cols`` floor (:data:`~warehouse_phys.grid.DEFAULT_ROWS` x
+    :data:`~warehouse_phys.grid.DEFAULT_COLS` by default), or the layout's."""
+    refuse_durations(grid_rows=grid_rows, grid_cols=grid_cols)
+    if layout is None:
+        return WarehouseGrid(
+            DEFAULT_ROWS if grid_rows is None else grid_rows,
+            DEFAULT_COLS if grid_cols is None else grid_cols,
+        )
+    for name, given in (("grid_rows", grid_rows), ("grid_cols", grid_cols)):
+        if given is not None:
+            check_size(name, given)
+    grid = resolve_layout(layout)
+    for name, given, actual in (
+        ("grid_rows", grid_rows, grid.rows),
+        ("grid_cols", grid_cols, grid.cols),
+    ):
+        if given is not None and given != actual:
+            raise ValueError(f"{name}={given} contradicts the layout, which has {actual}")
+    return grid

@@ -26,14 +26,12 @@ from warehouse_phys.envs import (
     checked_choice,
     checked_penalty,
     checked_record_path,
-    make_grid,
     observation_space,
     onehot,
-    refuse_durations,
     status_line,
 )
-from warehouse_phys.grid import Action
-from warehouse_phys.layouts import suggested_time_limit
+from warehouse_phys.grid import Action, refuse_durations
+from warehouse_phys.layouts import make_grid, suggested_time_limit
 from warehouse_phys.physics import check_controller, physics_config_from
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
 
