@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warehouse_phys.grid import WarehouseGrid
+from warehouse_phys.grid import TARGET_REWARD, WarehouseGrid
 
 #: Largest table of distances kept whole [entries]: 16 MiB of int64. Larger floors
 #: compute distances as they go (cached per package on floors with shelves).
@@ -103,3 +103,23 @@ class BatchedRules:
                 del self._distance_rows[next(iter(self._distance_rows))]  # the oldest
             row = self._distance_rows[target] = self._distance_row(target)
         return row
+
+
+def step_rewards(
+    arrived: np.ndarray,
+    stayed: np.ndarray | None = None,
+    step_penalty: float = 0.0,
+    bump_penalty: float = 0.0,
+) -> np.ndarray:
+    """:func:`warehouse_phys.grid.step_reward` for many robots: a fresh float64 array.
+
+    ``arrived`` and ``stayed`` are boolean arrays of one shape (``stayed`` may be
+    ``None`` when ``bump_penalty`` is 0); the same floating-point operations in the
+    same order, so every element equals the single rule's reward bit for bit.
+    """
+    rewards = np.where(arrived, TARGET_REWARD, 0.0)
+    if step_penalty:
+        rewards[~arrived] -= step_penalty
+    if bump_penalty:
+        rewards[stayed] -= bump_penalty
+    return rewards

@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from warehouse_phys.grid import Action, Cell, move_table, refuse_durations
+from warehouse_phys.grid import Action, Cell, move_table, refuse_durations, step_reward
 from warehouse_phys.layouts import make_grid
 from warehouse_phys.physics import CAN_RESTART, PhysicsConfig, PhysicsWorld, check_controller
 from warehouse_phys.render import (
@@ -141,12 +141,12 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         before = self._robot
         self._robot = self._move_robot(move)
         self._last_action = move
-        reward, terminated = self.grid.outcome(self._robot, self._target)
-        if self._penalised:
-            if not terminated:
-                reward -= self.step_penalty
-            if self._robot == before:  # a wall or a shelf refused the move
-                reward -= self.bump_penalty
+        terminated = self._robot == self._target
+        reward = (
+            step_reward(terminated, self._robot == before, self.step_penalty, self.bump_penalty)
+            if self._penalised
+            else step_reward(terminated)
+        )
         if self.render_mode == "human":
             self._show_move()
             self.render()

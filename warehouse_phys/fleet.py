@@ -17,6 +17,7 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
+from warehouse_phys.batched import step_rewards
 from warehouse_phys.batched_physics import ACTION_DELTA_ARRAY, BatchedPhysicsWorld
 from warehouse_phys.distances import DistanceMaps
 from warehouse_phys.envs import onehot
@@ -463,8 +464,9 @@ class WarehouseFleetEnv(ParallelEnv):
                 self._parked[delivered] = self.on_delivery == "park"
                 self._on_floor[delivered] = self.on_delivery == "park"
         agents = self.agents
-        arrived_live = (arrived if len(live) == self.num_robots else arrived[live]).tolist()
-        rewards = dict(zip(agents, map(float, arrived_live), strict=True))
+        arrived_live = arrived if len(live) == self.num_robots else arrived[live]
+        rewards = dict(zip(agents, step_rewards(arrived_live).tolist(), strict=True))
+        arrived_live = arrived_live.tolist()
         ends_robot = arrived_live if not self.lifelong else [False] * len(agents)
         terminations = dict(zip(agents, ends_robot, strict=True))
         truncated = self._steps >= self.max_cycles

@@ -375,12 +375,24 @@ class WarehouseGrid:
             alive = alive @ transition
             alive[rows, targets] = 0.0
 
-    @staticmethod
-    def outcome(cell: tuple[int, int], target: tuple[int, int]) -> tuple[float, bool]:
-        """The reward and the ``terminated`` flag for a robot standing on ``cell``."""
-        if cell[0] == target[0] and cell[1] == target[1]:
-            return TARGET_REWARD, True
-        return 0.0, False
+
+def step_reward(
+    arrived: bool, stayed: bool = False, step_penalty: float = 0.0, bump_penalty: float = 0.0
+) -> float:
+    """The reward of one robot's step; the step terminates its episode if ``arrived``.
+
+    :data:`TARGET_REWARD` on the step the robot reaches its package, else 0.0,
+    less ``step_penalty`` on every step that does not reach it and less
+    ``bump_penalty`` when a wall or shelf refused the move (``stayed``). Every
+    environment takes its rewards from here; :func:`warehouse_phys.batched.step_rewards`
+    is the same rule for many robots at once (equal, as a test proves).
+    """
+    reward = TARGET_REWARD if arrived else 0.0
+    if not arrived:
+        reward -= step_penalty
+    if stayed:
+        reward -= bump_penalty
+    return reward
 
 
 #: Largest floor given a move table by :func:`move_table` [cells].

@@ -19,7 +19,7 @@ from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from warehouse_phys.batched import BatchedRules
+from warehouse_phys.batched import BatchedRules, step_rewards
 from warehouse_phys.batched_physics import BatchedPhysicsWorld
 from warehouse_phys.envs import (
     OBSERVATION_KINDS,
@@ -212,11 +212,9 @@ class WarehouseGridVectorEnv(VectorEnv):
         actions = self._checked_actions(actions)
         pos4 = self._move_robots(actions)
         terminated = pos4 == self._target4
-        rewards = terminated.astype(np.float64)
-        if self.step_penalty:
-            rewards[~terminated] -= self.step_penalty
-        if self.bump_penalty:  # a refused move leaves the robot on its cell
-            rewards[pos4 == self._pos4] -= self.bump_penalty
+        # A refused move leaves the robot on its cell.
+        stayed = pos4 == self._pos4 if self.bump_penalty else None
+        rewards = step_rewards(terminated, stayed, self.step_penalty, self.bump_penalty)
         steps = self._steps
         steps += 1
         truncated = steps >= self.max_episode_steps
