@@ -12,12 +12,15 @@ import numpy as np
 import pytest
 
 import warehouse_phys
+import warehouse_phys.fleet
 from warehouse_phys import Action
+from warehouse_phys.fleet_learning import train_fleet
 from warehouse_phys.qlearning import (
     TABLE_FORMAT,
     QLearningConfig,
     QTableError,
     check_training_memory,
+    epsilon_schedule,
     evaluate,
     greedy_action,
     greedy_actions,
@@ -49,6 +52,17 @@ def test_defaults_are_the_tutorials():
     assert config.epsilon(500) == pytest.approx(0.5)
     assert config.epsilon(1000) == 0.0
     assert config.epsilon(5000) == 0.0
+
+
+def test_every_learner_plays_the_one_epsilon_schedule(trained):
+    _, result = trained
+    schedule = epsilon_schedule(result.config.episodes)
+    assert schedule.dtype == np.float64
+    np.testing.assert_array_equal(result.epsilon, schedule)
+    assert [result.config.epsilon(i) for i in range(len(schedule))] == schedule.tolist()
+    fleet_env = warehouse_phys.fleet.parallel_env(num_robots=2)
+    fleet_result = train_fleet(fleet_env, QLearningConfig(episodes=7))
+    np.testing.assert_array_equal(fleet_result.epsilon, epsilon_schedule(7))
 
 
 @pytest.mark.parametrize(

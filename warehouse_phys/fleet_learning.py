@@ -38,6 +38,7 @@ from warehouse_phys.qlearning import (
     TrainingResult,
     agent_rng,
     check_training_memory,
+    epsilon_schedule,
 )
 from warehouse_phys.traffic import FLEET_ACTIONS
 
@@ -135,7 +136,7 @@ def train_fleet(
     returns = np.zeros(episodes, dtype=np.float64)
     reached = np.zeros(episodes, dtype=bool)
     truncated_episodes = np.zeros(episodes, dtype=bool)
-    epsilons = np.maximum(1.0 - np.arange(episodes) / episodes, 0.0)
+    epsilons = epsilon_schedule(episodes)
 
     for episode in range(episodes):
         observations, _ = env.reset(seed=config.seed) if episode == 0 else env.reset()

@@ -196,8 +196,22 @@ class QLearningConfig:
             raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
 
     def epsilon(self, episode: int) -> float:
-        """Exploration rate of the 0-based ``episode``: ``1 - episode / episodes``, at least 0."""
-        return max(1.0 - episode / self.episodes, 0.0)
+        """Exploration rate of the 0-based ``episode``: ``1 - episode / episodes``, at least 0
+        (see :func:`exploration_rate`)."""
+        return float(exploration_rate(episode, self.episodes))
+
+
+def exploration_rate(episode: int | np.ndarray, episodes: int) -> np.ndarray:
+    """The epsilon of the 0-based ``episode`` (a number or an array of them) in a run of
+    ``episodes``: ``1 - episode / episodes``, at least 0. It starts at 1 and falls
+    linearly by ``1 / episodes`` after each episode, the schedule of every learner here."""
+    return np.maximum(1.0 - np.asarray(episode) / episodes, 0.0)
+
+
+def epsilon_schedule(episodes: int) -> np.ndarray:
+    """The exploration rate of each episode of a run of ``episodes``: a float64 array
+    of :func:`exploration_rate` for ``0, 1, ..., episodes - 1``."""
+    return exploration_rate(np.arange(episodes), episodes)
 
 
 @dataclass(frozen=True)
@@ -274,7 +288,7 @@ def train(
     returns = np.zeros(episodes, dtype=np.float64)
     reached = np.zeros(episodes, dtype=bool)
     truncated_episodes = np.zeros(episodes, dtype=bool)
-    epsilons = np.maximum(1.0 - np.arange(episodes) / episodes, 0.0)  # config.epsilon(i)
+    epsilons = epsilon_schedule(episodes)
 
     for episode in range(episodes):
         obs, _ = env.reset(seed=config.seed) if episode == 0 else env.reset()
