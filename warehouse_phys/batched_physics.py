@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 import pymunk
@@ -36,8 +35,10 @@ from scipy.spatial import cKDTree
 from warehouse_phys.grid import ACTION_DELTAS, WarehouseGrid
 from warehouse_phys.physics import (
     CAN_RESTART,
+    POSITION_FIELD,
     WALL_THICKNESS,
     PhysicsConfig,
+    PositionReader,
     RobotBodies,
     add_floor,
     add_robot,
@@ -60,62 +61,16 @@ GAP_REACH = 3
 
 #: ``ACTION_DELTAS`` as an array: ``ACTION_DELTA_ARRAY[action]`` is ``(d_row, d_col)``.
 ACTION_DELTA_ARRAY = np.array(ACTION_DELTAS, dtype=np.int64)
+#: The aims of a fleet's actions: the four moves, then a wait (no change).
+_AIM_DELTAS = np.concatenate([ACTION_DELTA_ARRAY, np.zeros((1, 2), dtype=np.int64)])
 
-_POSITION = pymunk.batch.BodyFields.POSITION
+_POSITION = POSITION_FIELD
 _SNAP_FIELDS = (
     pymunk.batch.BodyFields.POSITION
     | pymunk.batch.BodyFields.VELOCITY
     | pymunk.batch.BodyFields.ANGULAR_VELOCITY
 )
 _BODY_ID = pymunk.batch.BodyFields.BODY_ID
-
-
-class _PositionReader:
-    """Every body's position in one call into chipmunk, into an array of our own.
-
-    :func:`pymunk.batch.get_space_bodies` builds its call's arguments anew and
-    fills a buffer that has to be copied out, every time; a recorded move reads
-    positions after every physics step, so this reader keeps both: pymunk's own
-    iterator function with a persistent argument block, filling our array. The
-    array has room for three more numbers than the bodies need, because
-    pymunk's buffer grows (and would move our memory) when fewer than three
-    places are left; no body is ever added to a world's space after it is
-    built. Without the pymunk internals this needs, it reads through
-    :func:`pymunk.batch.get_space_bodies`.
-    """
-
-    def __init__(self, n_bodies: int) -> None:
-        self.n_bodies = n_bodies
-        self._floats = np.zeros(2 * n_bodies + 4)
-        self._buffer = pymunk.batch.Buffer()
-        self._buffer.set_float_buf(self._floats)
-        self._positions = self._floats[: 2 * n_bodies].reshape(n_bodies, 2)
-        try:
-            from pymunk._chipmunk import ffi, lib
-
-            data = ffi.new("pmBatchedData *")
-            data.fields = _POSITION.value
-            data.floatArray = self._buffer._float_arr
-            data.intArray = self._buffer._int_arr
-            iterate = ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
-            self._call: tuple[Any, ...] | None = (lib.cpSpaceEachBody, iterate, data)
-        except (ImportError, AttributeError):  # pragma: no cover - pymunk internals moved
-            self._call = None
-
-    def read(self, space: pymunk.Space) -> np.ndarray:
-        """``(bodies, 2)`` positions ``(x, y)`` [m] in the space's order: a view, valid
-        until the next read."""
-        if self._call is None:  # pragma: no cover - pymunk internals moved
-            buffer = pymunk.batch.Buffer()
-            pymunk.batch.get_space_bodies(space, _POSITION, buffer)
-            return np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
-        each_body, iterate, data = self._call
-        floats = self._buffer._float_arr
-        floats.num = 0
-        each_body(space._space, iterate, data)
-        if floats.num != 2 * self.n_bodies:  # pragma: no cover - a body was added
-            raise RuntimeError(f"the space holds {floats.num // 2} bodies, not {self.n_bodies}")
-        return self._positions
 
 
 class BatchedPhysicsWorld:
@@ -288,6 +243,31 @@ class BatchedPhysicsWorld:
         """:meth:`move` with each robot aimed one cell in the direction of its action (0..3)."""
         return self.move(self.cells + ACTION_DELTA_ARRAY[actions])
 
+    def move_granted(
+        self, actions: np.ndarray, ends: np.ndarray, bumped: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`move` for a fleet's joint step, as its traffic rule granted it.
+
+        Args:
+            actions: ``(N,)`` the robots' actions, 0..3 a move, 4 a wait.
+            ends: ``(N, 2)`` the cell each robot ends on under the rule.
+            bumped: ``(N,)`` whether the floor refused the robot's move.
+
+        A robot whose cell changes drives to its end; a robot bumped by a wall or
+        shelf drives towards it and back, as a single robot does; every other
+        robot (waiting, or refused by traffic) holds its cell's centre.
+        """
+        cells = self.cells
+        aims = cells + _AIM_DELTAS[actions]
+        hold = ~((ends != cells).any(axis=1) | bumped)
+        aims[hold] = cells[hold]
+        return self.move(aims)
+
+    def closest_gaps(self) -> np.ndarray:
+        """Each robot's smallest gap to another's disc during the last move [cells]:
+        :meth:`closest_approach` less the robots' diameter (negative: they overlapped)."""
+        return self.closest_approach() - self.config.robot_diameter
+
     def restart(self, robots: np.ndarray | Sequence[int], starts: np.ndarray) -> None:
         """Make the given robots as newly built, at rest on ``starts`` (``(k, 2)``).
 
@@ -458,7 +438,7 @@ class BatchedPhysicsWorld:
         self._body_rows = where  # robots, then their control bodies
         self._positions = every_xy.copy()  # the rows of other bodies keep their positions
         self._positions_io.set_float_buf(self._positions)
-        self._reader = _PositionReader(len(in_space))
+        self._reader = PositionReader(len(in_space))
         self._snap = np.zeros((len(in_space), 5))  # x, y, vx, vy, angular velocity
         self._snap[:, :2] = every_xy
         self._snap_io.set_float_buf(self._snap)

@@ -41,6 +41,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import pymunk
+import pymunk.batch
 
 from warehouse_phys.grid import ACTION_DELTAS, Action, Cell, WarehouseGrid
 
@@ -212,6 +213,11 @@ class PhysicsConfig:
     def settle_steps(self) -> int:
         """Physics steps of the settle phase, at the end of every move."""
         return round(self.settle_time / self.dt)
+
+    @property
+    def robot_diameter(self) -> float:
+        """The robot's diameter [cells]."""
+        return 2 * self.robot_radius / self.cell_size
 
 
 #: The names of :class:`PhysicsConfig`'s fields: the physical keywords of every environment.
@@ -629,6 +635,58 @@ else:  # pragma: no cover - the same through pymunk's properties
         body.angle = 0.0
         body.force = (0.0, 0.0)
         body.torque = 0.0
+
+
+#: The body field of a position in pymunk's batched I/O.
+POSITION_FIELD = pymunk.batch.BodyFields.POSITION
+
+
+class PositionReader:
+    """Every body's position in one call into chipmunk, into an array of our own.
+
+    :func:`pymunk.batch.get_space_bodies` builds its call's arguments anew and
+    fills a buffer that has to be copied out, every time; a recorded move reads
+    positions after every physics step, so this reader keeps both: pymunk's own
+    iterator function with a persistent argument block, filling our array. The
+    array has room for three more numbers than the bodies need, because
+    pymunk's buffer grows (and would move our memory) when fewer than three
+    places are left; no body is ever added to a world's space after it is
+    built. Without the pymunk internals this needs, it reads through
+    :func:`pymunk.batch.get_space_bodies`.
+    """
+
+    def __init__(self, n_bodies: int) -> None:
+        self.n_bodies = n_bodies
+        self._floats = np.zeros(2 * n_bodies + 4)
+        self._buffer = pymunk.batch.Buffer()
+        self._buffer.set_float_buf(self._floats)
+        self._positions = self._floats[: 2 * n_bodies].reshape(n_bodies, 2)
+        try:
+            from pymunk._chipmunk import ffi, lib
+
+            data = ffi.new("pmBatchedData *")
+            data.fields = POSITION_FIELD.value
+            data.floatArray = self._buffer._float_arr
+            data.intArray = self._buffer._int_arr
+            iterate = ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
+            self._call: tuple[Any, ...] | None = (lib.cpSpaceEachBody, iterate, data)
+        except (ImportError, AttributeError):  # pragma: no cover - pymunk internals moved
+            self._call = None
+
+    def read(self, space: pymunk.Space) -> np.ndarray:
+        """``(bodies, 2)`` positions ``(x, y)`` [m] in the space's order: a view, valid
+        until the next read."""
+        if self._call is None:  # pragma: no cover - pymunk internals moved
+            buffer = pymunk.batch.Buffer()
+            pymunk.batch.get_space_bodies(space, POSITION_FIELD, buffer)
+            return np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
+        each_body, iterate, data = self._call
+        floats = self._buffer._float_arr
+        floats.num = 0
+        each_body(space._space, iterate, data)
+        if floats.num != 2 * self.n_bodies:  # pragma: no cover - a body was added
+            raise RuntimeError(f"the space holds {floats.num // 2} bodies, not {self.n_bodies}")
+        return self._positions
 
 
 def _box(
