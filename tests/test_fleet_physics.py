@@ -51,7 +51,7 @@ def all_pairs_gap(env: fleet.WarehouseFleetEnv) -> float:
     paths = env.world.last_paths  # (N, steps, 2) [cells]
     apart = np.linalg.norm(paths[:, None] - paths[None, :], axis=-1).min(axis=-1)
     np.fill_diagonal(apart, np.inf)
-    return float(apart.min()) - 2 * env.config.robot_radius / env.config.cell_size
+    return float(apart.min()) - env.physics.robot_diameter
 
 
 def twins(values: dict, **kwargs: object) -> tuple:
@@ -211,7 +211,7 @@ def test_without_gap_tracking_the_fleet_moves_alike_and_reads_no_paths():
     framed = fleet.parallel_env(track_gaps=False, render_mode="rgb_array", **kwargs)
     framed.reset(seed=3)
     framed.step(dict.fromkeys(framed.agents, WAIT))
-    assert len(framed.move_frames()) == framed.config.steps_per_move
+    assert len(framed.move_frames()) == framed.physics.steps_per_move
 
 
 # ------------------------------------------------------------------ at scale

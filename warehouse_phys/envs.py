@@ -73,6 +73,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         "render_modes": RenderModes(["human", "rgb_array", "ansi"]),
         "render_fps": 4,
     }
+    #: The physics world's parameters; ``None`` in the grid twin.
+    physics: PhysicsConfig | None = None
 
     def __init__(
         self,
@@ -588,7 +590,7 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
             bump_penalty=bump_penalty,
         )
         #: The physical parameters, checked here; each reset builds its world from them.
-        self.physics = PhysicsConfig(
+        self.physics: PhysicsConfig = PhysicsConfig(
             cell_size=cell_size,
             robot_radius=robot_radius,
             robot_mass=robot_mass,

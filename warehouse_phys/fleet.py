@@ -18,11 +18,11 @@ from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from warehouse_phys.batched import step_rewards
-from warehouse_phys.batched_physics import ACTION_DELTA_ARRAY, BatchedPhysicsWorld
+from warehouse_phys.batched_physics import BatchedPhysicsWorld
 from warehouse_phys.distances import DistanceMaps
 from warehouse_phys.envs import onehot
 from warehouse_phys.layouts import make_grid, suggested_time_limit
-from warehouse_phys.physics import check_controller, physics_config_from
+from warehouse_phys.physics import PhysicsConfig, check_controller, physics_config_from
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer
 from warehouse_phys.traffic import (
     FLEET_ACTIONS,
@@ -144,9 +144,12 @@ class WarehouseFleetEnv(ParallelEnv):
     - ``num_robots`` (int, default 2): at least 1, at most what the floor has
       start and package cells for (at most :data:`MAX_PHYSICS_ROBOTS` in the
       physics world).
-    - ``physics`` (bool, default False), and the physical keywords of
-      :class:`~warehouse_phys.envs.WarehousePhysicsEnv` (``robot_radius`` ...),
-      which also decide for the grid twin whether corner follows are granted.
+    - ``physics`` (bool, default False): whether the robots are bodies in a
+      physics world; the attribute :attr:`physics` is then its
+      :class:`~warehouse_phys.physics.PhysicsConfig` (``None`` in the grid twin),
+      as in every environment. The physical keywords of
+      :class:`~warehouse_phys.envs.WarehousePhysicsEnv` (``robot_radius`` ...)
+      also decide for the grid twin whether corner follows are granted.
     - ``grid_rows``, ``grid_cols``, ``layout``: the floor, as in the single
       environments (``layout`` also takes a path to a MovingAI ``.map`` file).
     - ``on_delivery`` (``"park"``, ``"leave"``, ``"new_package"``), ``lifelong``
@@ -231,7 +234,6 @@ class WarehouseFleetEnv(ParallelEnv):
             )
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.num_robots = int(num_robots)
-        self.physics = physics
         self._track_gaps = track_gaps
         self.on_delivery = "new_package" if lifelong else on_delivery or "park"
         self.observation = observation
@@ -243,12 +245,15 @@ class WarehouseFleetEnv(ParallelEnv):
         if max_cycles < 1:
             raise ValueError(f"max_cycles must be at least 1, got {max_cycles}")
         self.max_cycles = int(max_cycles)
-        #: The physical parameters (checked even for the grid twin: they decide corner follows).
-        self.config = physics_config_from(physical)
-        diameter = 2 * self.config.robot_radius / self.config.cell_size
+        # The physical parameters are checked in both twins: the robots' size decides
+        # whether the rule grants corner follows.
+        config = physics_config_from(physical)
         if physics:  # the controller keeps one robot's promises, and the fleet's robots apart
-            check_clearance(diameter, *check_controller(self.config))
-        self.corner_follows = corner_follows_are_safe(diameter)
+            check_clearance(config.robot_diameter, *check_controller(config))
+        #: The physics world's parameters, as in every environment; ``None`` in the grid twin.
+        self.physics: PhysicsConfig | None = config if physics else None
+        #: Whether the traffic rule grants corner follows (robots small enough to pass).
+        self.corner_follows = corner_follows_are_safe(config.robot_diameter)
         if starts == "auto":
             starts = "layout" if getattr(self.grid, "starts_marked", True) else "random"
         self.starts_mode = starts
@@ -412,7 +417,7 @@ class WarehouseFleetEnv(ParallelEnv):
         self._steps = 0
         if self.physics and self.world is None:
             self.world = BatchedPhysicsWorld(
-                self.grid, self.config, self._cells, np.zeros(n, dtype=np.int64),
+                self.grid, self.physics, self._cells, np.zeros(n, dtype=np.int64),
                 record_path=self.track_gaps or self.render_mode == "rgb_array",
             )  # fmt: skip
         elif self.physics:  # every robot as newly built, in the same world
@@ -444,8 +449,10 @@ class WarehouseFleetEnv(ParallelEnv):
         ends = np.empty((self.num_robots, 2), dtype=np.int64)
         np.divmod(moved, cols, out=(ends[:, 0], ends[:, 1]))
         snap_errors = gaps = None
-        if self.physics:
-            ends, snap_errors, gaps = self._drive(joint, ends, bumped)
+        if self.physics:  # the granted moves and the bumps driven, the rest held
+            body_cells, snap_errors = self.world.move_granted(joint, ends, bumped)
+            ends = np.asarray(body_cells, dtype=np.int64).reshape(-1, 2)
+            gaps = self.world.closest_gaps() if self.track_gaps else None
         self._cell_rows_cols = ends  # the cells, their indices set below
         self._steps += 1
 
@@ -660,23 +667,6 @@ class WarehouseFleetEnv(ParallelEnv):
     def _checked_agent(self, agent: str) -> None:
         if agent not in self._index:
             raise ValueError(f"unknown robot {agent!r}; the robots are {self.possible_agents}")
-
-    def _drive(
-        self, joint: np.ndarray, ends: np.ndarray, bumped: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Drive the granted moves and the bumps into walls (the traffic rule's
-        :class:`~warehouse_phys.traffic.Grants`) in the physics; hold the rest."""
-        cells = self._cells
-        aims = cells + ACTION_DELTA_ARRAY[np.where(joint == WAIT, 0, joint)]
-        # A move the floor refuses is driven too: the robot bumps and drives back, as alone.
-        hold = ~((ends != cells).any(axis=1) | bumped)
-        aims[hold] = cells[hold]
-        body_cells, snap_errors = self.world.move(aims)
-        gaps = None
-        if self.track_gaps:
-            diameter = 2 * self.config.robot_radius / self.config.cell_size
-            gaps = self.world.closest_approach() - diameter
-        return np.asarray(body_cells, dtype=np.int64).reshape(-1, 2), snap_errors, gaps
 
     def _observations(self, live: np.ndarray) -> dict[str, np.ndarray]:
         if self.observation == "global":

@@ -374,7 +374,7 @@ def record_fleet_episode(
         if env.physics:
             frames.extend(env.move_frames()[:-1])  # the snapped frame follows
         frames.append(env.render())
-    fps = 1 / env.config.dt if env.physics else env.metadata["render_fps"]
+    fps = 1 / env.physics.dt if env.physics else env.metadata["render_fps"]
     return Animation(frames, fps), delivered
 
 

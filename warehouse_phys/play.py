@@ -251,7 +251,7 @@ class FleetPlaySession(PlaySession):
         super().__init__(env, seed=seed, title=title)
         self.action_keys[self._pg.K_SPACE] = WAIT
         self._physics = env.physics
-        self._fps = 1 / env.config.dt if env.physics else float(env.metadata["render_fps"])
+        self._fps = 1 / env.physics.dt if env.physics else float(env.metadata["render_fps"])
 
     def step(self, action: int) -> None:
         """One joint step: ``robot_0`` takes ``action``, the others what the planner says."""

@@ -32,7 +32,7 @@ from warehouse_phys.envs import (
 )
 from warehouse_phys.grid import Action, refuse_durations
 from warehouse_phys.layouts import make_grid, suggested_time_limit
-from warehouse_phys.physics import check_controller, physics_config_from
+from warehouse_phys.physics import PhysicsConfig, check_controller, physics_config_from
 from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
 
 #: Most sub-environments in one vector environment (about 100 bytes of state each).
@@ -132,6 +132,8 @@ class WarehouseGridVectorEnv(VectorEnv):
         "render_fps": 4,
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
+    #: The physics world's parameters; ``None`` in the grid twin.
+    physics: PhysicsConfig | None = None
 
     def __init__(
         self,
@@ -550,7 +552,7 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
             bump_penalty=bump_penalty,
         )
         #: The physical parameters, checked here as the single environment checks them.
-        self.physics = physics_config_from(physics)
+        self.physics: PhysicsConfig = physics_config_from(physics)
         check_controller(self.physics)
         self.record_path = checked_record_path(record_path, render_mode)
         #: The world of every sub-environment's robot, built by the first reset.
