@@ -20,6 +20,7 @@ from warehouse_phys.qlearning import (
     QLearningConfig,
     QTableError,
     check_training_memory,
+    epsilon_greedy,
     epsilon_schedule,
     evaluate,
     greedy_action,
@@ -29,6 +30,7 @@ from warehouse_phys.qlearning import (
     save_q_table,
     state_values,
     table_metadata,
+    td_update,
     train,
 )
 
@@ -117,6 +119,22 @@ def test_no_bootstrap_from_a_terminal_state():
     # One step further back: gamma times that.
     assert result.q[0, 0, 1, 1, Action.RIGHT] == pytest.approx(0.9)
     assert (start == 5.0).all()  # the initial table was copied, not changed
+
+
+def test_the_shared_update_and_choice_rules():
+    values, next_values = np.array([0.0, 0.5, 0.0, 0.0]), np.array([0.2, 0.8, 0.8, 0.1])
+    td_update(values, 2, 0.0, next_values, alpha=0.5, gamma=0.9)
+    assert values[2] == pytest.approx(0.5 * 0.9 * 0.8)
+    td_update(values, 0, 1.0, None, alpha=0.5, gamma=0.9)  # terminal: the reward alone
+    assert values[0] == 0.5
+    rng = np.random.default_rng(0)
+    assert epsilon_greedy(next_values, 0.0, rng) == 1  # the first of the best
+    picked = {epsilon_greedy(next_values, 0.0, rng, random_ties=True) for _ in range(50)}
+    assert picked == {1, 2}
+    # Without ties and at epsilon 0 the fleet's rule draws nothing.
+    state = rng.bit_generator.state
+    assert epsilon_greedy(values, 0.0, rng, random_ties=True) == 0
+    assert rng.bit_generator.state == state
 
 
 def test_training_can_carry_on_from_a_table(trained):

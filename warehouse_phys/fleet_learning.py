@@ -34,11 +34,14 @@ from warehouse_phys.layouts import preset_name
 from warehouse_phys.qlearning import (
     TABLE_FORMAT,
     TABLE_FORMAT_VERSION,
+    EpisodeOutcome,
     QLearningConfig,
     TrainingResult,
     agent_rng,
     check_training_memory,
-    epsilon_schedule,
+    epsilon_greedy,
+    run_episodes,
+    td_update,
 )
 from warehouse_phys.traffic import FLEET_ACTIONS
 
@@ -131,44 +134,32 @@ def train_fleet(
     elif max_steps < 1:
         raise ValueError(f"max_steps must be at least 1, got {max_steps!r}")
     rng = agent_rng(config.seed)
-    alpha, gamma, episodes = config.alpha, config.gamma, config.episodes
-    steps = np.zeros(episodes, dtype=np.int64)
-    returns = np.zeros(episodes, dtype=np.float64)
-    reached = np.zeros(episodes, dtype=bool)
-    truncated_episodes = np.zeros(episodes, dtype=bool)
-    epsilons = epsilon_schedule(episodes)
+    alpha, gamma = config.alpha, config.gamma
 
-    for episode in range(episodes):
-        observations, _ = env.reset(seed=config.seed) if episode == 0 else env.reset()
-        epsilon, n_steps, total = epsilons[episode], 0, 0.0
-        cut = False
+    def play(seed: int | None, epsilon: float) -> EpisodeOutcome:
+        observations, _ = env.reset(seed=seed)
+        n_steps, total, cut = 0, 0.0, False
         while env.agents:
             if n_steps >= max_steps:
                 cut = True
                 break
             states = {agent: tuple(obs.tolist()) for agent, obs in observations.items()}
-            actions = {}
-            for agent in env.agents:
-                actions[agent] = _choose(q[states[agent]], epsilon, rng)
+            actions = {
+                agent: epsilon_greedy(q[states[agent]], epsilon, rng, random_ties=True)
+                for agent in env.agents
+            }
             observations, rewards, terminations, truncations, _ = env.step(actions)
             for agent, action in actions.items():
-                values = q[states[agent]]
-                if terminations[agent]:
-                    td_target = rewards[agent]
-                else:
-                    next_values = q[tuple(observations[agent].tolist())]
-                    td_target = rewards[agent] + gamma * next_values.max()
-                values[action] += alpha * (td_target - values[action])
+                next_values = (
+                    None if terminations[agent] else q[tuple(observations[agent].tolist())]
+                )
+                td_update(q[states[agent]], action, rewards[agent], next_values, alpha, gamma)
             n_steps += 1
             total += sum(rewards.values())
             cut = cut or any(truncations.values())
-        steps[episode] = n_steps
-        returns[episode] = total
-        reached[episode] = not cut
-        truncated_episodes[episode] = cut
-        if on_episode is not None:
-            on_episode(episode)
-    return TrainingResult(q, config, steps, returns, reached, truncated_episodes, epsilons)
+        return n_steps, total, not cut, cut
+
+    return run_episodes(config, q, play, on_episode)
 
 
 def greedy_fleet_policy(
@@ -226,7 +217,9 @@ def greedy_fleet_policy(
         for agent, obs in observations.items():
             key = tuple(obs.tolist())
             stuck = progress.stuck(agent, q, key, rng)
-            actions[agent] = _choose(q[key], 1.0 if stuck else epsilon, rng)
+            actions[agent] = epsilon_greedy(
+                q[key], 1.0 if stuck else epsilon, rng, random_ties=True
+            )
         return actions
 
     return policy
@@ -283,14 +276,6 @@ class _Progress:
         robot.idle, robot.walk = 0, int(rng.integers(robot.window))  # this step and 0..w-1 more
         robot.window = min(2 * robot.window, BACKOFF_WINDOW_CAP)
         return True
-
-
-def _choose(values: np.ndarray, epsilon: float, rng: np.random.Generator) -> int:
-    """Epsilon-greedy over ``values``, ties among the best broken at random."""
-    if epsilon > 0.0 and (epsilon >= 1.0 or rng.random() < epsilon):
-        return int(rng.integers(FLEET_ACTIONS))
-    best = np.flatnonzero(values == values.max())
-    return int(best[rng.integers(len(best))] if len(best) > 1 else best[0])
 
 
 def fleet_table_metadata(

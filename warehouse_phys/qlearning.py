@@ -282,54 +282,109 @@ def train(
         q = np.array(q, dtype=np.float64)
         _check_table(q, rows, cols, where="initial table")
     rng = agent_rng(config.seed)
-    alpha, gamma, n_actions = config.alpha, config.gamma, q.shape[-1]
+    alpha, gamma = config.alpha, config.gamma
+
+    def play(seed: int | None, epsilon: float) -> EpisodeOutcome:
+        obs, _ = env.reset(seed=seed)
+        state = tuple(obs.tolist())
+        n_steps, total = 0, 0.0
+        while True:
+            values = q[state]
+            action = epsilon_greedy(values, epsilon, rng)
+            obs, reward, terminated, truncated, _ = env.step(action)
+            next_state = tuple(obs.tolist())
+            td_update(values, action, reward, None if terminated else q[next_state], alpha, gamma)
+            n_steps += 1
+            total += reward
+            if terminated or truncated:
+                return n_steps, total, terminated, truncated and not terminated
+            state = next_state
+
+    return run_episodes(config, q, play, on_episode)
+
+
+# ----------------------------------------------- what every tabular learner shares
+#: One training episode's records: its steps, its return, whether it reached its end
+#: (the target, or every package delivered) and whether a time limit cut it first.
+EpisodeOutcome = tuple[int, float, bool, bool]
+
+
+def run_episodes(
+    config: QLearningConfig,
+    q: np.ndarray,
+    play_episode: Callable[[int | None, float], EpisodeOutcome],
+    on_episode: Callable[[int], None] | None = None,
+) -> TrainingResult:
+    """Play the ``config.episodes`` episodes of a training run and keep their records.
+
+    Episode ``i`` is ``play_episode(seed, epsilon)``, which resets the environment with
+    ``seed`` (``config.seed`` for the first episode, ``None`` after it: unseeded),
+    plays it with the exploration rate ``epsilon`` of :func:`epsilon_schedule`, updates
+    ``q`` in place and returns its :data:`EpisodeOutcome`. ``on_episode(i)``, if given,
+    is called after episode ``i``. Returns the table (``q`` itself) and the records.
+    """
     episodes = config.episodes
     steps = np.zeros(episodes, dtype=np.int64)
     returns = np.zeros(episodes, dtype=np.float64)
     reached = np.zeros(episodes, dtype=bool)
-    truncated_episodes = np.zeros(episodes, dtype=bool)
+    truncated = np.zeros(episodes, dtype=bool)
     epsilons = epsilon_schedule(episodes)
-
     for episode in range(episodes):
-        obs, _ = env.reset(seed=config.seed) if episode == 0 else env.reset()
-        state = tuple(obs.tolist())
-        epsilon = epsilons[episode]
-        n_steps, total = 0, 0.0
-        while True:
-            values = q[state]
-            if rng.random() < epsilon:
-                action = int(rng.integers(n_actions))
-            else:
-                action = int(values.argmax())
-            obs, reward, terminated, truncated, _ = env.step(action)
-            next_state = tuple(obs.tolist())
-            if terminated:
-                td_target = reward
-            else:
-                next_values = q[next_state]
-                td_target = reward + gamma * next_values[next_values.argmax()]
-            values[action] += alpha * (td_target - values[action])
-            n_steps += 1
-            total += reward
-            if terminated or truncated:
-                break
-            state = next_state
-        steps[episode] = n_steps
-        returns[episode] = total
-        reached[episode] = terminated
-        truncated_episodes[episode] = truncated and not terminated
+        seed = config.seed if episode == 0 else None
+        outcome = play_episode(seed, epsilons[episode])
+        steps[episode], returns[episode], reached[episode], truncated[episode] = outcome
         if on_episode is not None:
             on_episode(episode)
-
     return TrainingResult(
         q=q,
         config=config,
         steps=steps,
         returns=returns,
         reached_target=reached,
-        truncated=truncated_episodes,
+        truncated=truncated,
         epsilon=epsilons,
     )
+
+
+def epsilon_greedy(
+    values: np.ndarray, epsilon: float, rng: np.random.Generator, *, random_ties: bool = False
+) -> int:
+    """The epsilon-greedy action over one state's action ``values``, drawn from ``rng``.
+
+    By default (the single robot's learner, the tutorial's rule) one uniform draw is
+    made every time: below ``epsilon``, a uniformly random action follows; otherwise
+    the first of the best-valued actions. With ``random_ties`` (a fleet's robots, so
+    that robots in the same situation do not all pick the first action) no draw decides
+    at ``epsilon`` 0 or 1, and ties among the best are broken by a draw.
+    """
+    n_actions = values.shape[-1]
+    if not random_ties:
+        if rng.random() < epsilon:
+            return int(rng.integers(n_actions))
+        return int(values.argmax())
+    if epsilon > 0.0 and (epsilon >= 1.0 or rng.random() < epsilon):
+        return int(rng.integers(n_actions))
+    best = np.flatnonzero(values == values.max())
+    return int(best[rng.integers(len(best))] if len(best) > 1 else best[0])
+
+
+def td_update(
+    values: np.ndarray,
+    action: int,
+    reward: float,
+    next_values: np.ndarray | None,
+    alpha: float,
+    gamma: float,
+) -> None:
+    """The Q-learning update of one step, in place on the state's action ``values``:
+    ``Q[s, a] += alpha * (r + gamma * max_a' Q[s', a'] - Q[s, a])``, where
+    ``next_values`` are those of ``s'``, or ``None`` when ``s'`` is terminal (no
+    bootstrapping from it)."""
+    if next_values is None:
+        td_target = reward
+    else:
+        td_target = reward + gamma * next_values[next_values.argmax()]
+    values[action] += alpha * (td_target - values[action])
 
 
 def greedy_action(q: np.ndarray, obs: Sequence[int] | np.ndarray) -> int:
