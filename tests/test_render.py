@@ -6,7 +6,7 @@ import pytest
 
 from warehouse_phys import PHYSICS_ENV_ID, Action, WarehouseGridEnv
 from warehouse_phys import render as render_module
-from warehouse_phys.render import WarehouseRenderer, ansi_frame
+from warehouse_phys.render import WarehouseRenderer, ansi_frame, fleet_ansi_frame
 
 ENV_ID = "warehouse-robot-v0"
 CELL = 64
@@ -368,3 +368,12 @@ def test_small_fleet_cells_draw_discs_keep_packages_visible_and_frame_the_delive
     assert (delivered_cell[px // 2, px // 2] == colours[1]).all()  # its colour inside
     assert (frame[0:px, 0:px] != render_module.DELIVERED_FRAME).any(axis=-1).all()
     renderer.close()
+
+
+def test_fleet_ansi_frame_draws_robots_over_packages_and_hides_robots_off_the_floor():
+    frame = fleet_ansi_frame(
+        2, 3, robots=[(0, 0), (1, 2), (1, 1)], packages=[(1, 2), (0, 1), (0, 2)],
+        shown=[True, True, False], shelves={(1, 0)},
+    )  # fmt: skip
+    # Robot 1 stands on robot 0's package; robot 2 and its package are not shown.
+    assert frame == "0 b _\n# _ 1"

@@ -23,7 +23,7 @@ from warehouse_phys.distances import DistanceMaps
 from warehouse_phys.envs import onehot
 from warehouse_phys.layouts import make_grid, suggested_time_limit
 from warehouse_phys.physics import PhysicsConfig, check_controller, physics_config_from
-from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer
+from warehouse_phys.render import DEFAULT_CELL_PX, WarehouseRenderer, fleet_ansi_frame
 from warehouse_phys.traffic import (
     FLEET_ACTIONS,
     WAIT,
@@ -499,7 +499,10 @@ class WarehouseFleetEnv(ParallelEnv):
         if not self._steps and not self.agents:
             raise ValueError("call reset() before render()")
         if self.render_mode == "ansi":
-            return self._ansi()
+            return fleet_ansi_frame(
+                self.grid.rows, self.grid.cols, self._cells.tolist(), self._package_list(),
+                self._on_floor.tolist(), self.grid.shelves,
+            )  # fmt: skip
         positions = (
             self.world.positions().tolist() if self.world is not None else self._cells.tolist()
         )
@@ -745,17 +748,6 @@ class WarehouseFleetEnv(ParallelEnv):
 
     def _package_list(self) -> list[tuple[int, int]]:
         return [tuple(p) for p in self._packages.tolist()]
-
-    def _ansi(self) -> str:
-        board = [["#" if (r, c) in self.grid.shelves else "_" for c in range(self.grid.cols)]
-                 for r in range(self.grid.rows)]  # fmt: skip
-        for i, (row, col) in enumerate(self._packages.tolist()):
-            if self._on_floor[i]:
-                board[row][col] = chr(ord("a") + i % 26)
-        for i, (row, col) in enumerate(self._cells.tolist()):
-            if self._on_floor[i]:
-                board[row][col] = str(i % 10)
-        return "\n".join(" ".join(row) for row in board)
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:

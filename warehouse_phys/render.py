@@ -92,6 +92,31 @@ def ansi_frame(
     return "".join(lines)
 
 
+def fleet_ansi_frame(
+    rows: int,
+    cols: int,
+    robots: Sequence[Sequence[int]],
+    packages: Sequence[Sequence[int]],
+    shown: Sequence[bool],
+    shelves: Collection[tuple[int, int]] = (),
+) -> str:
+    """A fleet's console picture: one line per grid row, cells separated by spaces.
+
+    Robot ``i`` (at ``robots[i]``) is the digit ``i % 10``, its package (at
+    ``packages[i]``) the letter ``"a"`` + ``i % 26``, drawn only where
+    ``shown[i]`` (a robot on the floor); ``#`` shelf, ``_`` floor. Robots are
+    drawn over packages.
+    """
+    board = [["#" if (r, c) in shelves else "_" for c in range(cols)] for r in range(rows)]
+    for i, (row, col) in enumerate(packages):
+        if shown[i]:
+            board[row][col] = chr(ord("a") + i % 26)
+    for i, (row, col) in enumerate(robots):
+        if shown[i]:
+            board[row][col] = str(i % 10)
+    return "\n".join(" ".join(line) for line in board)
+
+
 def import_pygame() -> ModuleType:
     """Import pygame (the ``pygame-ce`` distribution) quietly, or say how to install it."""
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
