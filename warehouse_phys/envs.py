@@ -558,12 +558,7 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
 
     def __init__(
         self,
-        grid_rows: int | None = None,
-        grid_cols: int | None = None,
-        render_mode: str | None = None,
-        cell_px: int = DEFAULT_CELL_PX,
-        layout: str | Sequence[str] | None = None,
-        *,
+        *args: Any,
         cell_size: float = _PHYSICS_DEFAULTS.cell_size,
         robot_radius: float = _PHYSICS_DEFAULTS.robot_radius,
         robot_mass: float = _PHYSICS_DEFAULTS.robot_mass,
@@ -575,20 +570,10 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
         move_duration: float = _PHYSICS_DEFAULTS.move_duration,
         settle_time: float = _PHYSICS_DEFAULTS.settle_time,
         record_path: bool | None = None,
-        observation: str = "cells",
-        step_penalty: float = 0.0,
-        bump_penalty: float = 0.0,
+        **keywords: Any,
     ) -> None:
-        super().__init__(
-            grid_rows,
-            grid_cols,
-            render_mode,
-            cell_px,
-            layout,
-            observation=observation,
-            step_penalty=step_penalty,
-            bump_penalty=bump_penalty,
-        )
+        # The floor, rendering, observation and penalties: as in every single environment.
+        super().__init__(*args, **keywords)
         #: The physical parameters, checked here; each reset builds its world from them.
         self.physics: PhysicsConfig = PhysicsConfig(
             cell_size=cell_size,
@@ -603,7 +588,7 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
             settle_time=settle_time,
         )
         check_controller(self.physics)
-        self.record_path = checked_record_path(record_path, render_mode)
+        self.record_path = checked_record_path(record_path, self.render_mode)
         #: The pymunk world of the current episode, rebuilt by every reset.
         self.world: PhysicsWorld | None = None
         self._snap_error = 0.0
@@ -619,14 +604,7 @@ class WarehousePhysicsEnv(WarehouseEnvBase):
             gymnasium.error.ResetNeeded: before the first reset.
             RuntimeError: if the environment does not record paths (see ``record_path``).
         """
-        if self.world is None:
-            raise ResetNeeded("call reset() before reading last_move_path")
-        if not self.record_path:
-            raise RuntimeError(
-                "this environment does not record paths: create it with record_path=True "
-                "or with render_mode='rgb_array'"
-            )
-        return self.world.last_path
+        return recording_world(self.world, self.record_path, "last_move_path").last_path
 
     def move_frames(self) -> list[np.ndarray]:
         """The frames of the last move, one per physics step, as ``(H, W, 3)`` uint8 arrays.
@@ -696,6 +674,23 @@ def checked_record_path(record_path: object, render_mode: str | None) -> bool:
     if render_mode == "human" and not record_path:
         raise ValueError("render_mode='human' plays the recorded path: record_path must be on")
     return record_path
+
+
+def recording_world(world: Any, record_path: bool, name: str) -> Any:
+    """``world``, if a reset built it and it records paths, to read ``name`` from.
+
+    Raises:
+        gymnasium.error.ResetNeeded: before the first reset.
+        RuntimeError: if the environment does not record paths (see ``record_path``).
+    """
+    if world is None:
+        raise ResetNeeded(f"call reset() before reading {name}")
+    if not record_path:
+        raise RuntimeError(
+            "this environment does not record paths: create it with record_path=True "
+            "or with render_mode='rgb_array'"
+        )
+    return world
 
 
 def checked_penalty(name: str, value: object) -> float:

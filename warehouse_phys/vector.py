@@ -10,6 +10,7 @@ every robot a body in one pymunk space.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Sequence
 from typing import Any
 
@@ -28,6 +29,7 @@ from warehouse_phys.envs import (
     checked_record_path,
     observation_space,
     onehot,
+    recording_world,
     status_line,
 )
 from warehouse_phys.grid import Action, refuse_durations
@@ -436,6 +438,10 @@ def _checked_count(name: str, value: object, maximum: int | None) -> int:
     return int(value)
 
 
+#: The keywords of the grid twin's constructor; the physics twin's others are physical.
+_GRID_KEYWORDS = frozenset(inspect.signature(WarehouseGridVectorEnv).parameters)
+
+
 class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     """``num_envs`` physics-backed warehouse floors, all robots in one pymunk space.
 
@@ -523,38 +529,18 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
     """
 
     def __init__(
-        self,
-        num_envs: int = 1,
-        grid_rows: int | None = None,
-        grid_cols: int | None = None,
-        layout: str | Sequence[str] | None = None,
-        max_episode_steps: int | None = None,
-        render_mode: str | None = None,
-        cell_px: int = DEFAULT_CELL_PX,
-        record_path: bool | None = None,
-        *,
-        observation: str = "cells",
-        step_penalty: float = 0.0,
-        bump_penalty: float = 0.0,
-        **physics: float,
+        self, num_envs: int = 1, *args: Any, record_path: bool | None = None, **keywords: Any
     ) -> None:
         _checked_count("num_envs", num_envs, MAX_PHYSICS_ENVS)
-        super().__init__(
-            num_envs,
-            grid_rows,
-            grid_cols,
-            layout,
-            max_episode_steps,
-            render_mode,
-            cell_px,
-            observation=observation,
-            step_penalty=step_penalty,
-            bump_penalty=bump_penalty,
-        )
+        physics = {
+            name: keywords.pop(name) for name in list(keywords) if name not in _GRID_KEYWORDS
+        }
+        # The floors, time limit, rendering, observation and penalties: as in the grid twin.
+        super().__init__(num_envs, *args, **keywords)
         #: The physical parameters, checked here as the single environment checks them.
         self.physics: PhysicsConfig = physics_config_from(physics)
         check_controller(self.physics)
-        self.record_path = checked_record_path(record_path, render_mode)
+        self.record_path = checked_record_path(record_path, self.render_mode)
         #: The world of every sub-environment's robot, built by the first reset.
         self.world: BatchedPhysicsWorld | None = None
         self._snap_error = np.zeros(self.num_envs)
@@ -579,14 +565,7 @@ class WarehousePhysicsVectorEnv(WarehouseGridVectorEnv):
             gymnasium.error.ResetNeeded: before the first reset.
             RuntimeError: if the environment does not record paths (see ``record_path``).
         """
-        if self.world is None:
-            raise ResetNeeded("call reset() before reading last_move_paths")
-        if not self.record_path:
-            raise RuntimeError(
-                "this environment does not record paths: create it with record_path=True "
-                "or with render_mode='rgb_array'"
-            )
-        return self.world.last_paths
+        return recording_world(self.world, self.record_path, "last_move_paths").last_paths
 
     # ------------------------------------------------------------------ hooks
     def _move_robots(self, actions: np.ndarray) -> np.ndarray:
