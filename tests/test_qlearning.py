@@ -133,7 +133,7 @@ def test_the_shared_update_and_choice_rules():
     assert picked == {1, 2}
     # Without ties and at epsilon 0 the fleet's rule draws nothing.
     state = rng.bit_generator.state
-    assert epsilon_greedy(values, 0.0, rng, random_ties=True) == 0
+    assert epsilon_greedy(np.array([0.0, 0.9, 0.5, 0.1]), 0.0, rng, random_ties=True) == 1
     assert rng.bit_generator.state == state
 
 
