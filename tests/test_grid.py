@@ -10,7 +10,16 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from warehouse_phys import grid as grid_module
-from warehouse_phys.grid import ACTION_DELTAS, MAX_SIDE, START_CELL, Action, Cell, WarehouseGrid
+from warehouse_phys.grid import (
+    ACTION_DELTAS,
+    MAX_SIDE,
+    START_CELL,
+    TARGET_REWARD,
+    Action,
+    Cell,
+    WarehouseGrid,
+    step_reward,
+)
 
 sizes = st.tuples(st.integers(2, 12), st.integers(2, 12))
 
@@ -112,10 +121,12 @@ def test_optimal_steps_equals_shortest_path(grid_cell, data):
     assert grid.optimal_steps(cell, target) == _bfs_steps(grid, cell, target)
 
 
-def test_outcome_rewards_only_the_target_cell():
-    assert WarehouseGrid.outcome((2, 3), (2, 3)) == (1.0, True)
-    assert WarehouseGrid.outcome((2, 2), (2, 3)) == (0.0, False)
-    assert WarehouseGrid.outcome((3, 2), (2, 3)) == (0.0, False)
+def test_step_reward_rewards_only_arrival_less_the_penalties():
+    assert step_reward(True) == TARGET_REWARD == 1.0
+    assert step_reward(False) == 0.0
+    assert step_reward(False, True) == 0.0  # a bump costs nothing without a penalty
+    assert step_reward(False, True, 0.1, 0.5) == -0.6
+    assert step_reward(True, False, 0.1, 0.5) == 1.0  # no step penalty on arrival
 
 
 @pytest.mark.parametrize(("rows", "cols"), [(1, 5), (4, 1), (0, 0), (-3, 5), (1, 1)])

@@ -112,18 +112,7 @@ class BatchedPhysicsWorld:
         n_robots = len(starts)
         if n_robots == 0:
             raise ValueError("a batched world needs at least one robot")
-        floor_of = (
-            np.arange(n_robots, dtype=np.int64)
-            if floor_of is None
-            else np.array(floor_of, dtype=np.int64).reshape(-1)
-        )
-        if floor_of.shape != (n_robots,):
-            raise ValueError(
-                f"floor_of must have one floor per robot ({n_robots}), got shape {floor_of.shape}"
-            )
-        n_floors = int(floor_of.max()) + 1
-        if floor_of.min() < 0 or len(np.unique(floor_of)) != n_floors:
-            raise ValueError("floors must be numbered 0, 1, ... with none left out")
+        floor_of, n_floors = _checked_floors(floor_of, n_robots)
         self.grid = grid
         self.config = config
         self.record_path = record_path
@@ -145,13 +134,8 @@ class BatchedPhysicsWorld:
         self._drive_steps = config.steps_per_move - config.settle_steps
         self._settle_steps = config.settle_steps
 
-        # The floors' top-left corners [m], on a lattice with FLOOR_GAP between walls.
-        side = math.ceil(math.sqrt(n_floors))
-        pitch_x = (grid.cols + 2 * WALL_THICKNESS + FLOOR_GAP) * size
-        pitch_y = (grid.rows + 2 * WALL_THICKNESS + FLOOR_GAP) * size
-        floors = np.arange(n_floors)
         #: ``(floors, 2)`` float64: each floor's top-left corner ``(x, y)`` [m].
-        self.floor_origins = np.stack([floors % side * pitch_x, floors // side * pitch_y], axis=1)
+        self.floor_origins = _floor_origins(grid, size, n_floors)
         self._origin = self.floor_origins[floor_of]  # (N, 2) [m], each robot's floor
 
         self.space = new_space(config)
@@ -477,3 +461,33 @@ class BatchedPhysicsWorld:
             shared = unique[counts > 1][0]
             robots = np.flatnonzero(keys == shared).tolist()
             raise ValueError(f"robots {robots} {name} on the same cell of the same floor")
+
+
+def _checked_floors(
+    floor_of: np.ndarray | Sequence[int] | None, n_robots: int
+) -> tuple[np.ndarray, int]:
+    """Each robot's floor as ``(N,)`` int64 (default: one floor each), and the number of
+    floors; a ``ValueError`` unless they are numbered 0, 1, ... with none left out."""
+    floor_of = (
+        np.arange(n_robots, dtype=np.int64)
+        if floor_of is None
+        else np.array(floor_of, dtype=np.int64).reshape(-1)
+    )
+    if floor_of.shape != (n_robots,):
+        raise ValueError(
+            f"floor_of must have one floor per robot ({n_robots}), got shape {floor_of.shape}"
+        )
+    n_floors = int(floor_of.max()) + 1
+    if floor_of.min() < 0 or len(np.unique(floor_of)) != n_floors:
+        raise ValueError("floors must be numbered 0, 1, ... with none left out")
+    return floor_of, n_floors
+
+
+def _floor_origins(grid: WarehouseGrid, size: float, n_floors: int) -> np.ndarray:
+    """The floors' top-left corners ``(x, y)`` [m], ``(floors, 2)``: a square lattice,
+    floor 0 at the origin, :data:`FLOOR_GAP` between the walls of neighbours."""
+    side = math.ceil(math.sqrt(n_floors))
+    pitch_x = (grid.cols + 2 * WALL_THICKNESS + FLOOR_GAP) * size
+    pitch_y = (grid.rows + 2 * WALL_THICKNESS + FLOOR_GAP) * size
+    floors = np.arange(n_floors)
+    return np.stack([floors % side * pitch_x, floors // side * pitch_y], axis=1)

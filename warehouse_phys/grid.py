@@ -135,33 +135,8 @@ class WarehouseGrid:
                 first start cannot reach, ``P`` cells the robot cannot reach, or no cell at
                 all for a package.
         """
-        if isinstance(layout, str) or not isinstance(layout, Sequence):
-            raise TypeError(
-                f"a layout is a list of strings, one per row, got {type(layout).__name__}"
-            )
-        rows = list(layout)
-        if not rows or not all(isinstance(row, str) for row in rows):
-            raise TypeError("a layout is a non-empty list of strings, one per row")
+        rows = _checked_layout(layout)
         width = len(rows[0])
-        if width == 0:
-            raise ValueError("layout row 0 is empty")
-        if len(rows) > MAX_SIDE or width > MAX_SIDE:
-            raise ValueError(
-                f"the layout has {len(rows)} rows of {width} cells: the largest floor is "
-                f"{MAX_SIDE} x {MAX_SIDE} cells"
-            )
-        for r, row in enumerate(rows):
-            if len(row) != width:
-                raise ValueError(
-                    f"layout rows must all have the same length: row {r} has {len(row)} "
-                    f"cells, row 0 has {width}"
-                )
-            for c, symbol in enumerate(row):
-                if symbol not in LAYOUT_SYMBOLS:
-                    known = ", ".join(f"{k!r} {v}" for k, v in LAYOUT_SYMBOLS.items())
-                    raise ValueError(
-                        f"unknown layout symbol {symbol!r} at row {r}, column {c}; known: {known}"
-                    )
         starts = [Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == START]
         start = starts[0] if starts else _unmarked_start(rows)
         shelves = frozenset(
@@ -177,29 +152,7 @@ class WarehouseGrid:
             )
         grid.starts = tuple(starts) or (start,)
         grid.starts_marked = bool(starts)
-        marked = [
-            Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == PACKAGE
-        ]
-        if marked:
-            unreachable = [tuple(cell) for cell in marked if cell not in grid.reachable]
-            if unreachable:
-                raise ValueError(
-                    f"package cells {_cell_list(unreachable)} cannot be reached from the start "
-                    f"{tuple(start)}"
-                )
-            targets = tuple(cell for cell in marked if cell not in grid.starts)
-        else:
-            targets = tuple(
-                Cell(r, c)
-                for r in range(len(rows))
-                for c in range(width)
-                if Cell(r, c) in grid.reachable and Cell(r, c) not in grid.starts
-            )
-        if not targets:
-            raise ValueError(
-                f"the layout leaves no cell for the package: no floor other than the start "
-                f"{tuple(start)} can be reached"
-            )
+        targets = _package_cells(grid, rows)
         grid.target_cells = targets
         return grid
 
@@ -425,6 +378,66 @@ def move_table(grid: WarehouseGrid) -> list[list[tuple[Cell, ...]]] | None:
 
 #: Most cells an error message lists; the rest are counted.
 LISTED_CELLS = 5
+
+
+def _checked_layout(layout: Sequence[str]) -> list[str]:
+    """The rows of ``layout``, or the ``TypeError``/``ValueError`` of
+    :meth:`WarehouseGrid.from_layout` naming what is wrong and where."""
+    if isinstance(layout, str) or not isinstance(layout, Sequence):
+        raise TypeError(f"a layout is a list of strings, one per row, got {type(layout).__name__}")
+    rows = list(layout)
+    if not rows or not all(isinstance(row, str) for row in rows):
+        raise TypeError("a layout is a non-empty list of strings, one per row")
+    width = len(rows[0])
+    if width == 0:
+        raise ValueError("layout row 0 is empty")
+    if len(rows) > MAX_SIDE or width > MAX_SIDE:
+        raise ValueError(
+            f"the layout has {len(rows)} rows of {width} cells: the largest floor is "
+            f"{MAX_SIDE} x {MAX_SIDE} cells"
+        )
+    for r, row in enumerate(rows):
+        if len(row) != width:
+            raise ValueError(
+                f"layout rows must all have the same length: row {r} has {len(row)} "
+                f"cells, row 0 has {width}"
+            )
+        for c, symbol in enumerate(row):
+            if symbol not in LAYOUT_SYMBOLS:
+                known = ", ".join(f"{k!r} {v}" for k, v in LAYOUT_SYMBOLS.items())
+                raise ValueError(
+                    f"unknown layout symbol {symbol!r} at row {r}, column {c}; known: {known}"
+                )
+    return rows
+
+
+def _package_cells(grid: WarehouseGrid, rows: Sequence[str]) -> tuple[Cell, ...]:
+    """The cells of a layout's floor where packages may appear: its ``P`` cells off the
+    starts, or every cell the robot reaches off the starts; refused if there are none."""
+    width = len(rows[0])
+    start = grid.start
+    marked = [Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == PACKAGE]
+    if marked:
+        unreachable = [tuple(cell) for cell in marked if cell not in grid.reachable]
+        if unreachable:
+            raise ValueError(
+                f"package cells {_cell_list(unreachable)} cannot be reached from the start "
+                f"{tuple(start)}"
+            )
+        targets = tuple(cell for cell in marked if cell not in grid.starts)
+    else:
+        targets = tuple(
+            Cell(r, c)
+            for r in range(len(rows))
+            for c in range(width)
+            if Cell(r, c) in grid.reachable and Cell(r, c) not in grid.starts
+        )
+    if not targets:
+        raise ValueError(
+            f"the layout leaves no cell for the package: no floor other than the start "
+            f"{tuple(start)} can be reached"
+        )
+    return targets
 
 
 def _cell_list(cells: Sequence[tuple[int, int]]) -> str:

@@ -276,7 +276,37 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
     """
     if packages not in ("all", "endpoints"):
         raise ValueError(f"packages must be 'all' or 'endpoints', got {packages!r}")
-    path = Path(path)
+    name, text = _map_text(Path(path))
+    # Lines end at "\n" only (and a "\r" before it is dropped): str.splitlines would also end
+    # them at form feeds and other controls, which then could not be reported as symbols.
+    lines = [line.removesuffix("\r") for line in text.split("\n")]
+    if lines[-1] == "":
+        lines.pop()  # the last line's end
+    height, width = _map_size(name, lines)
+    body = lines[len(_HEADER) :]
+    while body and len(body) > height and not body[-1].strip():
+        body.pop()  # blank lines at the end
+    if len(body) != height:
+        raise ValueError(
+            f"{name}, line {len(_HEADER) + min(len(body), height) + 1}: the header says "
+            f"{height} {'row' if height == 1 else 'rows'}, the file has {len(body)}"
+        )
+    rows = _map_rows(name, body, width, packages)
+    # Errors about the whole floor name the map's lines, and its rows as cells count them.
+    first, last = len(_HEADER) + 1, len(_HEADER) + height
+    where = f"{name}, line {first}" if height == 1 else f"{name}, lines {first}-{last}"
+    where += f" (map rows 0-{height - 1})" if height > 1 else " (map row 0)"
+    if packages == "endpoints" and not any(MOVINGAI_ENDPOINT in row for row in body):
+        raise ValueError(f"{where}: packages='endpoints' but the map marks no 'E' cell")
+    try:
+        return WarehouseGrid.from_layout(rows)
+    except ValueError as error:
+        raise ValueError(f"{where}: {error}") from None
+
+
+def _map_text(path: Path) -> tuple[str, str]:
+    """The name messages give ``path`` by, and the text of its file, or the
+    :func:`read_movingai` ``ValueError`` of a file that is no map's text."""
     # The file's name as messages give it: quoted if it holds a line end or another control.
     name = str(path) if str(path).isprintable() else repr(str(path))
     if "\0" in str(path):
@@ -311,11 +341,11 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
             f"{name}, line {line}, column {column}: byte {data[error.start]:#04x} is not ASCII "
             "text; not a MovingAI map"
         ) from None
-    # Lines end at "\n" only (and a "\r" before it is dropped): str.splitlines would also end
-    # them at form feeds and other controls, which then could not be reported as symbols.
-    lines = [line.removesuffix("\r") for line in text.split("\n")]
-    if lines[-1] == "":
-        lines.pop()  # the last line's end
+    return name, text
+
+
+def _map_size(name: str, lines: list[str]) -> tuple[int, int]:
+    """The ``height`` and ``width`` of a map's header lines, or a ``ValueError`` naming the line."""
     sizes = {}
     for number, key in enumerate(_HEADER, start=1):
         words = lines[number - 1].split() if number <= len(lines) else []
@@ -333,15 +363,12 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
             if not 1 <= sizes[key] <= MAX_SIDE:
                 raise ValueError(f"{name}, line {number}: {key} must be 1 to {MAX_SIDE} (the "
                                  f"largest floor), got {words[1][:40]}")  # fmt: skip
-    height, width = sizes["height"], sizes["width"]
-    body = lines[len(_HEADER) :]
-    while body and len(body) > height and not body[-1].strip():
-        body.pop()  # blank lines at the end
-    if len(body) != height:
-        raise ValueError(
-            f"{name}, line {len(_HEADER) + min(len(body), height) + 1}: the header says "
-            f"{height} {'row' if height == 1 else 'rows'}, the file has {len(body)}"
-        )
+    return sizes["height"], sizes["width"]
+
+
+def _map_rows(name: str, body: list[str], width: int, packages: str) -> list[str]:
+    """A map's rows in layout symbols (``#`` blocked, ``.`` free, ``P`` an endpoint with
+    ``packages="endpoints"``), or a ``ValueError`` naming the line and column."""
     known = MOVINGAI_PASSABLE | MOVINGAI_BLOCKED
     endpoint = "P" if packages == "endpoints" else "."
     table = str.maketrans({**dict.fromkeys(MOVINGAI_BLOCKED, "#"),
@@ -360,16 +387,7 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
                 f"{''.join(sorted(MOVINGAI_BLOCKED))}"
             )
         rows.append(row.translate(table))
-    # Errors about the whole floor name the map's lines, and its rows as cells count them.
-    first, last = len(_HEADER) + 1, len(_HEADER) + height
-    where = f"{name}, line {first}" if height == 1 else f"{name}, lines {first}-{last}"
-    where += f" (map rows 0-{height - 1})" if height > 1 else " (map row 0)"
-    if packages == "endpoints" and not any(MOVINGAI_ENDPOINT in row for row in body):
-        raise ValueError(f"{where}: packages='endpoints' but the map marks no 'E' cell")
-    try:
-        return WarehouseGrid.from_layout(rows)
-    except ValueError as error:
-        raise ValueError(f"{where}: {error}") from None
+    return rows
 
 
 def write_movingai(grid: WarehouseGrid, path: str | os.PathLike[str]) -> Path:

@@ -157,34 +157,10 @@ class PIBT:
         self._update_priorities(here, goal)
         distances = self._distances_round(np.sort(here[present & ~movable]))
 
-        # Candidates of every moving robot, nearest to the goal first, in one look-up.
-        moving = np.flatnonzero(movable)
-        candidates = self._table[here[moving]]  # (m, 5): the four moves, then staying
-        targets = np.repeat(goal[moving], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
         self._goal_list = goal.tolist()
         self._plain = np.isin(goal, self._held) if self._held.size else np.ones(n, dtype=bool)
-        if distances is self.distances:
-            distance = distances.lookup(candidates, targets).astype(np.float64)
-        else:  # round the held cells, but not towards one: that goal is on the plain floor
-            distance = np.empty(candidates.shape, dtype=np.float64)
-            onto_held = self._plain[moving]
-            for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
-                if rows.any():
-                    distance[rows] = maps.lookup(candidates[rows], targets[rows])
-        blocked = candidates[:, :WAIT] == here[moving, None]  # a move into a wall or shelf
-        distance[:, :WAIT][blocked] = np.inf  # UNREACHABLE cells stay last but one
-        # Nearest first; among equals a cell nobody stands on now (no one to push),
-        # then at random.
-        occupied = np.zeros(self.grid.rows * cols, dtype=bool)
-        occupied[here[present]] = True
-        pushes = occupied[candidates] & (candidates != here[moving, None])
-        tie_break = self.rng.random(distance.shape)
-        order = np.lexsort((tie_break, pushes, distance), axis=1)
-        ranked = np.take_along_axis(candidates, order, axis=1)
-        ranked[np.take_along_axis(np.isinf(distance), order, axis=1)] = NIL
-        ranked_of: list[list[int] | None] = [None] * n
-        for i, row in zip(moving.tolist(), ranked.tolist(), strict=True):
-            ranked_of[i] = row
+        moving = np.flatnonzero(movable)
+        ranked_of = self._ranked_candidates(here, goal, moving, present, distances)
 
         here_list = here.tolist()
         plan = [NIL] * n
@@ -211,6 +187,45 @@ class PIBT:
         step = np.array(plan, dtype=np.int64)[moving] - here[moving] + cols
         actions[moving] = np.array(self._action_of, dtype=np.int64)[step]
         return actions
+
+    def _ranked_candidates(
+        self,
+        here: np.ndarray,
+        goal: np.ndarray,
+        moving: np.ndarray,
+        present: np.ndarray,
+        distances: DistanceMaps,
+    ) -> list[list[int] | None]:
+        """Each moving robot's candidate cells, best first (``None`` for the others):
+        nearest to its goal, then a cell nobody stands on now, then at random; cells it
+        cannot reach its goal from are :data:`NIL`."""
+        n, cols = len(here), self.grid.cols
+        # Candidates of every moving robot, nearest to the goal first, in one look-up.
+        candidates = self._table[here[moving]]  # (m, 5): the four moves, then staying
+        targets = np.repeat(goal[moving], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
+        if distances is self.distances:
+            distance = distances.lookup(candidates, targets).astype(np.float64)
+        else:  # round the held cells, but not towards one: that goal is on the plain floor
+            distance = np.empty(candidates.shape, dtype=np.float64)
+            onto_held = self._plain[moving]
+            for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
+                if rows.any():
+                    distance[rows] = maps.lookup(candidates[rows], targets[rows])
+        blocked = candidates[:, :WAIT] == here[moving, None]  # a move into a wall or shelf
+        distance[:, :WAIT][blocked] = np.inf  # UNREACHABLE cells stay last but one
+        # Nearest first; among equals a cell nobody stands on now (no one to push),
+        # then at random.
+        occupied = np.zeros(self.grid.rows * cols, dtype=bool)
+        occupied[here[present]] = True
+        pushes = occupied[candidates] & (candidates != here[moving, None])
+        tie_break = self.rng.random(distance.shape)
+        order = np.lexsort((tie_break, pushes, distance), axis=1)
+        ranked = np.take_along_axis(candidates, order, axis=1)
+        ranked[np.take_along_axis(np.isinf(distance), order, axis=1)] = NIL
+        ranked_of: list[list[int] | None] = [None] * n
+        for i, row in zip(moving.tolist(), ranked.tolist(), strict=True):
+            ranked_of[i] = row
+        return ranked_of
 
     def _distances_round(self, held: np.ndarray) -> DistanceMaps:
         """Distances on the floor with the ``held`` cells (parked robots, which never move
