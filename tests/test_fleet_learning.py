@@ -1,5 +1,6 @@
 """A fleet's shared Q-table, its evaluation and the shortest-path baseline."""
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -17,7 +18,13 @@ from warehouse_phys.fleet_learning import (
     train_fleet,
     training_steps,
 )
-from warehouse_phys.qlearning import QLearningConfig, QTableError, load_q_table, save_q_table
+from warehouse_phys.qlearning import (
+    QLearningConfig,
+    QTableError,
+    load_q_table,
+    save_q_table,
+    table_metadata,
+)
 from warehouse_phys.traffic import WAIT
 
 
@@ -75,6 +82,15 @@ def test_a_fleet_table_round_trips_and_a_wrong_shape_is_refused(tmp_path):
     with pytest.raises(QTableError, match="'robots' is not 1 to 1,000,000"):
         save_q_table(tmp_path / "bad.npz", q, {**metadata, "robots": 0})
     assert not (tmp_path / "bad.npz").exists()
+
+
+def test_a_fleet_tables_metadata_is_a_single_tables_with_its_robots():
+    config = QLearningConfig(episodes=5, alpha=0.5, seed=2)
+    single = table_metadata(gym.make("warehouse-robot-v0", layout="aisles"), config)
+    env = fleet.parallel_env(num_robots=2, layout="aisles", observation="neighbours")
+    metadata = fleet_table_metadata(env, config, "warehouse-robot-v0")
+    assert metadata == {**single, "env_id": "warehouse-robot-v0", "robots": 2,
+                        "observation": "neighbours"}  # fmt: skip
 
 
 @pytest.mark.parametrize("physics", [False, True])

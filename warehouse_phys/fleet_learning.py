@@ -30,16 +30,14 @@ from warehouse_phys.fleet_evaluation import (  # re-exported: they lived here fi
     sample_fleet_gaps,
     shortest_path_policy,
 )
-from warehouse_phys.layouts import preset_name
 from warehouse_phys.qlearning import (
-    TABLE_FORMAT,
-    TABLE_FORMAT_VERSION,
     EpisodeOutcome,
     QLearningConfig,
     TrainingResult,
     agent_rng,
     check_training_memory,
     epsilon_greedy,
+    make_table_metadata,
     run_episodes,
     td_update,
 )
@@ -283,26 +281,11 @@ def fleet_table_metadata(
 ) -> dict[str, Any]:
     """The metadata saved with a fleet's shared table (see
     :func:`~warehouse_phys.qlearning.save_q_table`): a single table's, with the
-    number of robots; ``env_id`` is the single environment of the same floor and world."""
-    from warehouse_phys import __version__
-
-    layout = env.grid.layout
-    return {
-        "format": TABLE_FORMAT,
-        "format_version": TABLE_FORMAT_VERSION,
-        "env_id": env_id,
-        "grid_rows": env.grid.rows,
-        "grid_cols": env.grid.cols,
-        "episodes": config.episodes,
-        "alpha": config.alpha,
-        "gamma": config.gamma,
-        "seed": config.seed,
-        "package_version": __version__,
-        "layout": None if layout is None else list(layout),
-        "layout_name": None if layout is None else preset_name(layout),
-        "robots": env.num_robots,
-        "observation": env.observation,
-    }
+    number of robots and their observation; ``env_id`` is the single environment of the
+    same floor and world."""
+    return make_table_metadata(
+        env_id, env.grid, config, robots=env.num_robots, observation=env.observation
+    )
 
 
 __all__ = [

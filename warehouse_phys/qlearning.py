@@ -27,7 +27,7 @@ names are importable from here too.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -35,12 +35,10 @@ import numpy as np
 
 from warehouse_phys.distances import DistanceMaps
 from warehouse_phys.grid import Cell
-from warehouse_phys.layouts import preset_name
 
 # The table file and the memory budget live in qtable_file; re-exported here, where
 # they lived first and where the README, the notebooks and the tests import them.
 from warehouse_phys.qtable_file import (
-    _METADATA_FIELDS,
     MAX_TABLE_ROBOTS,
     METADATA_MAX_BYTES,
     RECORD_BYTES_PER_EPISODE,
@@ -51,6 +49,7 @@ from warehouse_phys.qtable_file import (
     check_table,
     check_training_memory,
     load_q_table,
+    make_table_metadata,
     save_q_table,
     table_actions,
     table_bytes,
@@ -464,23 +463,12 @@ def evaluate(env: gym.Env, q: np.ndarray, *, max_steps: int | None = None) -> Ev
 
 # ------------------------------------------------------------------ metadata
 def table_metadata(env: gym.Env, config: QLearningConfig) -> dict[str, Any]:
-    """The metadata saved next to a table trained on ``env`` with ``config``."""
-    from warehouse_phys import __version__
-
-    rows, cols = _grid_size(env)
+    """The metadata saved next to a table trained on ``env`` with ``config`` (see
+    :func:`~warehouse_phys.qtable_file.make_table_metadata`)."""
+    _grid_size(env)  # a warehouse environment
     spec = getattr(env, "spec", None)
-    layout = env.unwrapped.grid.layout
-    return {
-        "format": TABLE_FORMAT,
-        "format_version": TABLE_FORMAT_VERSION,
-        "env_id": spec.id if spec else type(env.unwrapped).__name__,
-        "grid_rows": rows,
-        "grid_cols": cols,
-        **{k: v for k, v in asdict(config).items() if k in _METADATA_FIELDS},
-        "package_version": __version__,
-        "layout": None if layout is None else list(layout),
-        "layout_name": None if layout is None else preset_name(layout),
-    }
+    env_id = spec.id if spec else type(env.unwrapped).__name__
+    return make_table_metadata(env_id, env.unwrapped.grid, config)
 
 
 def _grid_size(env: gym.Env) -> tuple[int, int]:
@@ -517,6 +505,7 @@ __all__ = [
     "greedy_action",
     "greedy_actions",
     "load_q_table",
+    "make_table_metadata",
     "new_q_table",
     "run_episodes",
     "save_q_table",

@@ -21,7 +21,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -146,6 +146,50 @@ def _size(n_bytes: int) -> str:
 
 class QTableError(ValueError):
     """A Q-table file that cannot be used; the message names the file and the problem."""
+
+
+class TrainingSettings(Protocol):
+    """What a table's metadata records of the run that trained it (a
+    :class:`~warehouse_phys.qlearning.QLearningConfig`)."""
+
+    episodes: int
+    alpha: float
+    gamma: float
+    seed: int
+
+
+def make_table_metadata(
+    env_id: str,
+    grid: WarehouseGrid,
+    config: TrainingSettings,
+    *,
+    robots: int | None = None,
+    observation: str = "local",
+) -> dict[str, Any]:
+    """The metadata saved with a table trained with ``config`` on the floor ``grid`` of
+    the environment ``env_id``: every entry :func:`load_q_table` requires and, for a
+    fleet's shared table (``robots`` given), its robots and ``observation``."""
+    from warehouse_phys import __version__
+
+    layout = grid.layout
+    metadata: dict[str, Any] = {
+        "format": TABLE_FORMAT,
+        "format_version": TABLE_FORMAT_VERSION,
+        "env_id": env_id,
+        "grid_rows": grid.rows,
+        "grid_cols": grid.cols,
+        "episodes": config.episodes,
+        "alpha": config.alpha,
+        "gamma": config.gamma,
+        "seed": config.seed,
+        "package_version": __version__,
+        "layout": None if layout is None else list(layout),
+        "layout_name": None if layout is None else preset_name(layout),
+    }
+    if robots is not None:
+        metadata[_FLEET_FIELD] = robots
+        metadata[_OBSERVATION_FIELD] = observation
+    return metadata
 
 
 def save_q_table(path: str | os.PathLike[str], q: np.ndarray, metadata: dict[str, Any]) -> Path:
