@@ -19,6 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 import warehouse_phys
+from warehouse_phys.animation import Animation
 from warehouse_phys.atomic import atomic_write_text
 from warehouse_phys.fleet import WarehouseFleetEnv, parallel_env
 from warehouse_phys.fleet_learning import (
@@ -182,7 +183,32 @@ def train_run(
     evaluation = evaluate(env, result.q)
     env.close()
     episode = greedy_episode(floor, kind, result.q, seed=config.seed) if gif else None
-    summary = _write_run(folder, env, result, evaluation, seconds, started, episode)
+    metadata = table_metadata(env, config)
+    last = _last_100(result)
+    summary = _write_run(
+        folder,
+        result,
+        metadata,
+        title=f"{metadata['env_id']} {metadata['grid_rows']}x{metadata['grid_cols']}, "
+        f"seed {config.seed}",
+        head={
+            "env_id": metadata["env_id"],
+            **_floor_summary(metadata),
+            "max_episode_steps": env.spec.max_episode_steps,
+        },
+        started=started,
+        seconds=seconds,
+        training={
+            "episodes": len(result.steps),
+            "reached_target": int(result.reached_target.sum()),
+            "truncated": int(result.truncated.sum()),
+            "total_steps": int(result.steps.sum()),
+            "mean_steps_last_100": float(result.steps[last].mean()),
+            "success_rate_last_100": float(result.reached_target[last].mean()),
+        },
+        evaluation=evaluation.to_json(),
+        gif=None if episode is None else partial(_single_gif, episode, config.seed),
+    )
     return RunOutcome(
         env.spec.id, env.spec.max_episode_steps, result, evaluation, seconds, summary,
         episode is not None,
@@ -228,8 +254,6 @@ def train_fleet_run(
         warehouse_phys.runfolder.RunWriteError: naming the file that could not be written.
         ValueError: if the floor cannot hold the fleet (too few start or package cells).
     """
-    from warehouse_phys.plots import learning_curve_figure, save_figure
-
     started = time.localtime()
     env = floor.make_fleet(kind, robots, observation=observation)
     start = time.perf_counter()
@@ -241,31 +265,37 @@ def train_fleet_run(
     metadata = fleet_table_metadata(env, config, env_id)
     env.close()
 
-    folder.write(TABLE_FILE, lambda path: save_q_table(path, result.q, metadata))
-    title = f"{robots} robots, {env_id} {env.grid.rows}x{env.grid.cols}, seed {config.seed}"
-    figure = learning_curve_figure(result, title)
-    folder.write(CURVE_FILE, lambda path: save_figure(figure, path))
-    last = slice(-min(100, len(result.steps)), None)
-    summary: dict[str, Any] = {
-        "env_id": env_id,
-        "robots": robots,
-        "grid": [env.grid.rows, env.grid.cols],
-        "layout": metadata["layout"],
-        "layout_name": metadata["layout_name"],
-        "max_cycles": env.max_cycles,
-        "config": asdict(config),
-        "package_version": warehouse_phys.__version__,
-        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", started),
-        "training_seconds": round(seconds, 4),
-        "training": {
+    def record_gif() -> tuple[Animation, dict[str, Any]]:
+        shown = floor.make_fleet(kind, robots, render_mode="rgb_array", observation=observation)
+        try:
+            animation, delivered = record_fleet_episode(
+                shown, greedy_fleet_policy(result.q), seed=config.seed, max_steps=GIF_MAX_STEPS
+            )
+        finally:
+            shown.close()
+        return animation, {"seed": config.seed, "delivered": delivered}
+
+    summary = _write_run(
+        folder,
+        result,
+        metadata,
+        title=f"{robots} robots, {env_id} {env.grid.rows}x{env.grid.cols}, seed {config.seed}",
+        head={
+            "env_id": env_id,
+            "robots": robots,
+            **_floor_summary(metadata),
+            "max_cycles": env.max_cycles,
+        },
+        started=started,
+        seconds=seconds,
+        training={
             "episodes": len(result.steps),
             "max_steps": min(env.max_cycles, training_steps(env.grid.rows, env.grid.cols)),
             "all_delivered": int(result.reached_target.sum()),
             "truncated": int(result.truncated.sum()),
-            "mean_steps_last_100": float(result.steps[last].mean()),
+            "mean_steps_last_100": float(result.steps[_last_100(result)].mean()),
         },
-        "learning_curve": learning_curve_points(result.steps),
-        "evaluation": {
+        evaluation={
             "seeds": [EVALUATION_SEEDS.start, EVALUATION_SEEDS.stop],
             "learned": evaluation.to_json(),
             "learned_epsilon": FLEET_EVAL_EPSILON,
@@ -274,21 +304,8 @@ def train_fleet_run(
             "random": comparison["random"].to_json(),
             "pibt": comparison["pibt"].to_json(),
         },
-        "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
-    }
-    if gif:
-        shown = floor.make_fleet(kind, robots, render_mode="rgb_array", observation=observation)
-        try:
-            animation, delivered = record_fleet_episode(
-                shown, greedy_fleet_policy(result.q), seed=config.seed, max_steps=GIF_MAX_STEPS
-            )
-        finally:
-            shown.close()
-        folder.write(GIF_FILE, animation.save)
-        summary["files"]["episode_gif"] = GIF_FILE
-        summary["gif_episode"] = {"seed": config.seed, "delivered": delivered}
-    text = json.dumps(summary, indent=2) + "\n"
-    folder.write(SUMMARY_FILE, lambda path: atomic_write_text(path, text))
+        gif=record_gif if gif else None,
+    )
     return FleetRunOutcome(
         env_id, robots, env.max_cycles, result, evaluation, baseline, comparison, seconds,
         summary, gif,
@@ -340,55 +357,69 @@ def learning_curve_points(steps: np.ndarray, window: int = 100) -> dict[str, lis
 
 def _write_run(
     folder: RunFolder,
-    env: gym.Env,
     result: TrainingResult,
-    evaluation: Evaluation,
-    seconds: float,
+    metadata: dict[str, Any],
+    *,
+    title: str,
+    head: dict[str, Any],
     started: time.struct_time,
-    episode: EpisodeRecording | None,
+    seconds: float,
+    training: dict[str, Any],
+    evaluation: dict[str, Any],
+    gif: Callable[[], tuple[Animation, dict[str, Any]]] | None,
 ) -> dict[str, Any]:
-    """The table, the learning curve, the GIF and the summary, each written atomically."""
+    """Write a run's files into ``folder``, each atomically, in this order: the table with
+    its ``metadata``, the learning curve titled ``title``, the GIF of the episode that
+    ``gif()`` records (with what the summary says of it; none if ``gif`` is ``None``),
+    and ``summary.json``. The summary is ``head`` (what ran, on which floor), then the
+    configuration, the version, the start and the training time, ``training`` (the
+    records in numbers), the learning curve, ``evaluation`` and the files; returns it."""
     from warehouse_phys.plots import learning_curve_figure, save_figure
 
-    metadata = table_metadata(env, result.config)
     folder.write(TABLE_FILE, lambda path: save_q_table(path, result.q, metadata))
-    grid = f"{metadata['grid_rows']}x{metadata['grid_cols']}"
-    title = f"{metadata['env_id']} {grid}, seed {result.config.seed}"
     figure = learning_curve_figure(result, title)
     folder.write(CURVE_FILE, lambda path: save_figure(figure, path))
-    last = slice(-min(100, len(result.steps)), None)
     summary: dict[str, Any] = {
-        "env_id": metadata["env_id"],
-        "grid": [metadata["grid_rows"], metadata["grid_cols"]],
-        "layout": metadata["layout"],
-        "layout_name": metadata["layout_name"],
-        "max_episode_steps": env.spec.max_episode_steps,
+        **head,
         "config": asdict(result.config),
         "package_version": warehouse_phys.__version__,
         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", started),
         "training_seconds": round(seconds, 4),
-        "training": {
-            "episodes": len(result.steps),
-            "reached_target": int(result.reached_target.sum()),
-            "truncated": int(result.truncated.sum()),
-            "total_steps": int(result.steps.sum()),
-            "mean_steps_last_100": float(result.steps[last].mean()),
-            "success_rate_last_100": float(result.reached_target[last].mean()),
-        },
+        "training": training,
         "learning_curve": learning_curve_points(result.steps),
-        "evaluation": evaluation.to_json(),
+        "evaluation": evaluation,
         "files": {"table": TABLE_FILE, "learning_curve": CURVE_FILE},
     }
-    if episode is not None:
-        animation = episode.animation()
+    if gif is not None:
+        animation, episode = gif()
         folder.write(GIF_FILE, animation.save)
         summary["files"]["episode_gif"] = GIF_FILE
-        summary["gif_episode"] = {
-            "seed": result.config.seed,
-            "target": list(episode.target),
-            "steps": episode.steps,
-            "reached_target": episode.terminated,
-        }
+        summary["gif_episode"] = episode
     text = json.dumps(summary, indent=2) + "\n"
     folder.write(SUMMARY_FILE, lambda path: atomic_write_text(path, text))
     return summary
+
+
+def _floor_summary(metadata: dict[str, Any]) -> dict[str, Any]:
+    """The floor of a table's ``metadata``, as a run's summary gives it."""
+    return {
+        "grid": [metadata["grid_rows"], metadata["grid_cols"]],
+        "layout": metadata["layout"],
+        "layout_name": metadata["layout_name"],
+    }
+
+
+def _last_100(result: TrainingResult) -> slice:
+    """The last 100 episodes of ``result`` (all of a shorter run)."""
+    return slice(-min(100, len(result.steps)), None)
+
+
+def _single_gif(episode: EpisodeRecording, seed: int) -> tuple[Animation, dict[str, Any]]:
+    """The GIF of a single robot's recorded greedy ``episode`` and what the summary says
+    of it."""
+    return episode.animation(), {
+        "seed": seed,
+        "target": list(episode.target),
+        "steps": episode.steps,
+        "reached_target": episode.terminated,
+    }
