@@ -6,8 +6,14 @@ import pytest
 
 import warehouse_phys
 from tests.test_render import robot_centre
-from warehouse_phys import SNAP_ERROR_BOUND, Action
-from warehouse_phys.recording import record_episode, sample_snap_errors
+from warehouse_phys import SNAP_ERROR_BOUND, Action, fleet
+from warehouse_phys.fleet_evaluation import random_fleet_policy, shortest_path_policy
+from warehouse_phys.recording import (
+    record_episode,
+    record_fleet_episode,
+    sample_fleet_gaps,
+    sample_snap_errors,
+)
 
 GRID_ID = warehouse_phys.GRID_ENV_ID
 PHYS_ID = warehouse_phys.PHYSICS_ENV_ID
@@ -124,3 +130,28 @@ def test_snap_errors_need_the_physics_backed_environment():
         sample_snap_errors(gym.make(GRID_ID), 10, seed=0)
     with pytest.raises(ValueError, match="moves must be at least 0, got -5"):
         sample_snap_errors(gym.make(PHYS_ID), -5, seed=0)
+
+
+# --------------------------------------------------------------------- fleets
+@pytest.mark.parametrize("physics", [False, True])
+def test_the_recorded_episode_shows_the_fleet_moving(physics):
+    env = fleet.parallel_env(num_robots=2, physics=physics, render_mode="rgb_array", cell_px=32)
+    animation, delivered = record_fleet_episode(env, shortest_path_policy, seed=0, max_steps=6)
+    frames_per_step = 15 if physics else 1  # every physics step, or one jump a step
+    assert len(animation.frames) == 1 + 6 * frames_per_step or delivered == 2
+    assert animation.fps == (60 if physics else 4)
+    assert animation.frames[0].shape == (4 * 32 + 20, 5 * 32, 3)
+
+
+def test_sampled_gaps_are_every_robots_closest_approach_and_need_the_physics():
+    env = fleet.parallel_env(num_robots=4, physics=True, lifelong=True)
+    gaps = sample_fleet_gaps(env, random_fleet_policy(1), 40, seed=0)
+    assert gaps.shape == (4 * 40,)
+    assert gaps.min() > -0.002  # never deeper than the collision slop
+    again = sample_fleet_gaps(env, random_fleet_policy(1), 40, seed=0)
+    assert np.array_equal(gaps, again)  # seeded: the same run
+    with pytest.raises(ValueError, match="only the physics world"):
+        sample_fleet_gaps(fleet.parallel_env(num_robots=2), random_fleet_policy(1), 5, seed=0)
+    untracked = fleet.parallel_env(num_robots=2, physics=True, track_gaps=False)
+    with pytest.raises(ValueError, match="does not measure min_gap: make it with track_gaps"):
+        sample_fleet_gaps(untracked, random_fleet_policy(1), 5, seed=0)

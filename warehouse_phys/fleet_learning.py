@@ -9,7 +9,8 @@ robot can learn to step aside. The learned policy (:func:`greedy_fleet_policy`)
 follows the table and sends a robot that stops making progress on random walks of
 growing length, which is what untangles robots that a table alone leaves in a
 standoff. How well a policy delivers, and the baseline policies, live in
-:mod:`warehouse_phys.fleet_evaluation` (re-exported here).
+:mod:`warehouse_phys.fleet_evaluation`, recording a fleet's episode in
+:mod:`warehouse_phys.recording` (both re-exported here).
 """
 
 from __future__ import annotations
@@ -26,8 +27,6 @@ from warehouse_phys.fleet_evaluation import (  # re-exported: they lived here fi
     FleetPolicy,
     evaluate_fleet,
     random_fleet_policy,
-    record_fleet_episode,
-    sample_fleet_gaps,
     shortest_path_policy,
 )
 from warehouse_phys.qlearning import (
@@ -40,6 +39,10 @@ from warehouse_phys.qlearning import (
     make_table_metadata,
     run_episodes,
     td_update,
+)
+from warehouse_phys.recording import (  # re-exported: they lived here first
+    record_fleet_episode,
+    sample_fleet_gaps,
 )
 from warehouse_phys.traffic import FLEET_ACTIONS
 

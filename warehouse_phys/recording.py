@@ -10,19 +10,28 @@ physics step (60 per second), the body driving from cell to cell. Either way
 
 :func:`sample_snap_errors` collects the physics-backed environment's
 pre-snap errors over many random moves.
+
+A fleet's episodes are recorded the same way: :func:`record_fleet_episode` plays a
+fleet policy and keeps its frames as an animation in real time, and
+:func:`sample_fleet_gaps` collects how close the physics fleet's robots came to each
+other.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
 
 from warehouse_phys.animation import Animation
 from warehouse_phys.envs import WarehousePhysicsEnv
+
+if TYPE_CHECKING:  # annotations only: recording a single robot needs no fleet
+    from warehouse_phys.fleet import WarehouseFleetEnv
+    from warehouse_phys.fleet_evaluation import FleetPolicy
 
 #: A policy maps an observation to an action.
 Policy = Callable[[np.ndarray], int]
@@ -172,3 +181,60 @@ def sample_snap_errors(env: gym.Env, moves: int, *, seed: int) -> np.ndarray:
         if terminated or truncated:
             env.reset()
     return errors
+
+
+def record_fleet_episode(
+    env: WarehouseFleetEnv, policy: FleetPolicy, *, seed: int, max_steps: int
+) -> tuple[Animation, int]:
+    """Play ``policy`` from ``env.reset(seed=seed)`` for at most ``max_steps`` joint
+    steps; the episode as an animation in real time (every physics step in the
+    physics world, one frame a step in the grid twin) and the packages delivered.
+
+    Raises:
+        ValueError: if ``env`` does not render ``"rgb_array"`` frames.
+    """
+    if env.render_mode != "rgb_array":
+        raise ValueError("record_fleet_episode needs render_mode='rgb_array'")
+    observations, infos = env.reset(seed=seed)
+    frames = [env.render()]
+    delivered = 0
+    for _ in range(max_steps):
+        if not env.agents:
+            break
+        live = {agent: observations[agent] for agent in env.agents}
+        observations, rewards, _, _, infos = env.step(policy(env, live, infos))
+        delivered += int(sum(rewards.values()))
+        if env.physics:
+            frames.extend(env.move_frames()[:-1])  # the snapped frame follows
+        frames.append(env.render())
+    fps = 1 / env.physics.dt if env.physics else env.metadata["render_fps"]
+    return Animation(frames, fps), delivered
+
+
+def sample_fleet_gaps(
+    env: WarehouseFleetEnv, policy: FleetPolicy, steps: int, *, seed: int
+) -> np.ndarray:
+    """``info["min_gap"]`` of every robot over ``steps`` joint steps of ``policy`` [cells]:
+    how close each robot's disc came to another's during each step (``inf`` where no
+    robot was within reach, see
+    :meth:`~warehouse_phys.batched_physics.BatchedPhysicsWorld.closest_approach`).
+
+    The fleet is reset with ``seed``, and again (unseeded) whenever an episode ends.
+
+    Raises:
+        ValueError: if ``env`` is not the physics world (the grid twin has no discs), or
+            does not track gaps (``track_gaps=False``).
+    """
+    if not env.physics:
+        raise ValueError("only the physics world (physics=True) has discs that can come close")
+    if not env.track_gaps:
+        raise ValueError("this fleet does not measure min_gap: make it with track_gaps=True")
+    observations, infos = env.reset(seed=seed)
+    gaps = []
+    for _ in range(steps):
+        if not env.agents:
+            observations, infos = env.reset()
+        live = {agent: observations[agent] for agent in env.agents}
+        observations, _, _, _, infos = env.step(policy(env, live, infos))
+        gaps.extend(info["min_gap"] for info in infos.values())
+    return np.array(gaps, dtype=np.float64)

@@ -30,7 +30,6 @@ from warehouse_phys.fleet_learning import (
     fleet_table_metadata,
     greedy_fleet_policy,
     random_fleet_policy,
-    record_fleet_episode,
     shortest_path_policy,
     train_fleet,
     training_steps,
@@ -47,7 +46,7 @@ from warehouse_phys.qlearning import (
     table_metadata,
     train,
 )
-from warehouse_phys.recording import EpisodeRecording, record_episode
+from warehouse_phys.recording import EpisodeRecording, record_episode, record_fleet_episode
 from warehouse_phys.runfolder import RunFolder
 
 #: The environment kinds and the ids they stand for.
