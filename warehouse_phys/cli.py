@@ -8,12 +8,16 @@ pick an environment with ``--env grid|phys`` and a floor with ``--rows``,
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from warehouse_phys.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
 from warehouse_phys.layouts import FLEET_PRESETS, PRESETS, read_movingai
 from warehouse_phys.runs import ENVIRONMENTS, Floor
+
+if TYPE_CHECKING:
+    from warehouse_phys.runfolder import RunFolder
 
 DEFAULT_ENV = "phys"
 #: Most robots a command takes; the floor may allow fewer (a clear error says so).
@@ -148,3 +152,26 @@ def floor_from_layout(name_or_file: str, *, max_steps: int | None = None) -> Flo
     except (TypeError, ValueError) as error:
         raise UsageError(f"--layout {path}: {error}") from None
     return Floor(layout=tuple(lines), label=path.stem, max_steps=max_steps)
+
+
+def open_run_folder(
+    out: Path | None, new: Path, files: Sequence[str], *, overwrite: bool
+) -> RunFolder:
+    """The opened run folder of a command: ``out`` (``--out``; an earlier run's ``files``
+    in it are replaced only with ``overwrite``), or else the new folder ``new``.
+
+    Raises:
+        UsageError: if the folder cannot be used, the message beginning with ``--out``
+            when ``out`` was given.
+    """
+    from warehouse_phys.runfolder import RunFolder, RunFolderError
+
+    if out is None:
+        folder = RunFolder(new, files, new=True)
+    else:
+        folder = RunFolder(out, files, overwrite=overwrite)
+    try:
+        folder.open()
+    except RunFolderError as error:
+        raise UsageError(f"--out {error}" if out is not None else str(error)) from None
+    return folder

@@ -36,7 +36,13 @@ from typing import Any
 
 import numpy as np
 
-from warehouse_phys.cli import MAX_CLI_ROBOTS, ArgumentParser, UsageError, bounded_int
+from warehouse_phys.cli import (
+    MAX_CLI_ROBOTS,
+    ArgumentParser,
+    UsageError,
+    bounded_int,
+    open_run_folder,
+)
 from warehouse_phys.fleet import DELIVERY_MODES, WarehouseFleetEnv, parallel_env
 from warehouse_phys.fleet_evaluation import (
     FleetPolicy,
@@ -371,24 +377,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
-    from warehouse_phys.runfolder import RunFolder, RunFolderError, RunWriteError
+    from warehouse_phys.runfolder import RunFolderError, RunWriteError
 
     try:
         args = build_parser().parse_args(argv)
         env, policy = _setup(args)
         label = _floor_label(args)
-        if args.out is None:
-            name = (
-                f"simulate-{label}-{args.robots}-{Path(args.policy).stem}-seed{args.seed}-"
-                f"{time.strftime('%Y%m%d-%H%M%S')}"
-            )
-            folder = RunFolder(DEFAULT_RUNS_DIR / name, RUN_FILES, new=True)
-        else:
-            folder = RunFolder(args.out, RUN_FILES, overwrite=args.overwrite)
-        try:
-            folder.open()
-        except RunFolderError as error:
-            raise UsageError(f"--out {error}" if args.out is not None else str(error)) from None
+        name = (
+            f"simulate-{label}-{args.robots}-{Path(args.policy).stem}-seed{args.seed}-"
+            f"{time.strftime('%Y%m%d-%H%M%S')}"
+        )
+        folder = open_run_folder(
+            args.out, DEFAULT_RUNS_DIR / name, RUN_FILES, overwrite=args.overwrite
+        )
         finished = False
         try:
             result, frames = _run(args, env, policy, label)

@@ -55,6 +55,7 @@ from warehouse_phys.cli import (
     add_robots_argument,
     bounded_int,
     floor_from_args,
+    open_run_folder,
 )
 from warehouse_phys.fleet_evaluation import compare_policies
 from warehouse_phys.layouts import PRESETS
@@ -324,16 +325,9 @@ def _in_run_folder(
     """Open the run's folder (a new one, or ``--out``), do ``work(folder, on_episode)``
     with a progress bar over ``episodes``, and close the folder (removing it if the
     work did not finish and wrote nothing)."""
-    if args.out is None:
-        where = _new_run_dir(kind, label, args.seed, time.localtime())
-        folder = RunFolder(where, RUN_FILES, new=True)
-    else:
-        folder = RunFolder(args.out, RUN_FILES, overwrite=args.overwrite)
+    new = _new_run_dir(kind, label, args.seed, time.localtime())  # unless --out names one
+    folder = open_run_folder(args.out, new, RUN_FILES, overwrite=args.overwrite)
     run.append(folder)
-    try:
-        folder.open()
-    except RunFolderError as error:
-        raise UsageError(f"--out {error}" if args.out is not None else str(error)) from None
     finished = False
     try:
         progress = _progress_bar(episodes, description, disable=args.quiet)
@@ -441,10 +435,7 @@ def _evaluate_saved(args: argparse.Namespace) -> int:
     evaluation = evaluate(env, q)
     env.close()
     if not args.quiet:
-        print(
-            f"evaluating {args.eval} ({metadata['env_id']}, {table_grid[0]}x{table_grid[1]}, "
-            f"{metadata['episodes']} episodes, seed {metadata['seed']}) on {env_id}"
-        )
+        print(f"evaluating {_saved_table(args.eval, metadata)} on {env_id}")
         print(evaluation.table())
     if args.render:
         _watch(floor, kind, q, seed=args.seed)
@@ -465,13 +456,21 @@ def _evaluate_saved_fleet(
     comparison = fleet_comparison(env, q)
     env.close()
     if not args.quiet:
-        print(
-            f"evaluating {args.eval} ({robots} robots, {metadata['env_id']}, "
-            f"{metadata['grid_rows']}x{metadata['grid_cols']}, {metadata['episodes']} episodes, "
-            f"seed {metadata['seed']}) over {len(EVALUATION_SEEDS)} seeds"
-        )
+        seeds = len(EVALUATION_SEEDS)
+        print(f"evaluating {_saved_table(args.eval, metadata)} over {seeds} seeds")
         print(compare_policies(comparison))
     return 0
+
+
+def _saved_table(path: Path, metadata: dict[str, Any]) -> str:
+    """The table saved at ``path`` in words: the file, then its robots (a fleet's),
+    environment, grid, episodes and seed."""
+    robots = metadata.get("robots", 1)
+    fleet = f"{robots} robots, " if robots > 1 else ""
+    return (
+        f"{path} ({fleet}{metadata['env_id']}, {metadata['grid_rows']}x{metadata['grid_cols']}, "
+        f"{metadata['episodes']} episodes, seed {metadata['seed']})"
+    )
 
 
 def _kind_of(env_id: str) -> str:
