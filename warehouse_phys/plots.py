@@ -203,17 +203,18 @@ def snap_error_figure(errors: np.ndarray, bound: float, title: str = "") -> Figu
     errors = np.asarray(errors, dtype=np.float64)
     if errors.size == 0:
         raise ValueError("no snap errors to plot")
-    figure = _figure(figsize=(6.5, 3.2))
-    ax = figure.subplots()
-    ax.hist(errors, bins=np.linspace(0, bound, 81), color="C0")
-    ax.axvline(bound, color="C3", linestyle="--", label=f"bound {bound:g}")
-    ax.axvline(errors.max(), color="C1", label=f"largest {errors.max():.4f}")
+    figure, ax = _histogram_figure(
+        errors,
+        np.linspace(0, bound, 81),
+        [
+            (bound, {"color": "C3", "linestyle": "--", "label": f"bound {bound:g}"}),
+            (errors.max(), {"color": "C1", "label": f"largest {errors.max():.4f}"}),
+        ],
+        xlabel="distance from the cell centre before the snap [cells]",
+        ylabel="moves",
+        title=title or f"{errors.size} moves",
+    )
     ax.set_xlim(0, bound * 1.05)
-    ax.set_xlabel("distance from the cell centre before the snap [cells]")
-    ax.set_ylabel("moves")
-    ax.legend(loc="upper right", fontsize=8)
-    ax.grid(alpha=0.3)
-    ax.set_title(title or f"{errors.size} moves")
     return figure
 
 
@@ -231,17 +232,18 @@ def fleet_gap_figure(gaps: np.ndarray, config: PhysicsConfig, title: str = "") -
         raise ValueError("no gaps to plot")
     diameter = 2 * config.robot_radius / config.cell_size
     corner = CORNER_FOLLOW_DISTANCE - diameter
-    figure = _figure(figsize=(6.5, 3.2))
-    ax = figure.subplots()
-    ax.hist(gaps, bins=np.linspace(-COLLISION_SLOP, max(gaps.max(), 1.5), 81), color="C0")
-    ax.axvline(0.0, color="C3", linestyle="--", label="discs touching")
-    ax.axvline(corner, color="C2", linestyle=":", label=f"corner follow {corner:.3f}")
-    ax.axvline(gaps.min(), color="C1", label=f"closest {gaps.min():.3f}")
-    ax.set_xlabel("smallest gap to a robot within reach during a step [cells]")
-    ax.set_ylabel("robot-steps")
-    ax.legend(loc="upper right", fontsize=8)
-    ax.grid(alpha=0.3)
-    ax.set_title(title or f"{gaps.size} robot-steps")
+    figure, _ = _histogram_figure(
+        gaps,
+        np.linspace(-COLLISION_SLOP, max(gaps.max(), 1.5), 81),
+        [
+            (0.0, {"color": "C3", "linestyle": "--", "label": "discs touching"}),
+            (corner, {"color": "C2", "linestyle": ":", "label": f"corner follow {corner:.3f}"}),
+            (gaps.min(), {"color": "C1", "label": f"closest {gaps.min():.3f}"}),
+        ],
+        xlabel="smallest gap to a robot within reach during a step [cells]",
+        ylabel="robot-steps",
+        title=title or f"{gaps.size} robot-steps",
+    )
     return figure
 
 
@@ -390,6 +392,31 @@ def _free_mask(grid: WarehouseGrid) -> np.ndarray:
         shelves = np.array(sorted(grid.shelves))
         mask[shelves[:, 0], shelves[:, 1]] = False
     return mask
+
+
+def _histogram_figure(
+    values: np.ndarray,
+    bins: np.ndarray,
+    lines: Sequence[tuple[float, dict[str, str]]],
+    *,
+    xlabel: str,
+    ylabel: str,
+    title: str,
+) -> tuple[Figure, Axes]:
+    """A histogram of ``values`` over ``bins`` with a vertical line at each ``x`` of
+    ``lines`` (drawn with its keyword arguments, a ``label`` for the legend), the figure
+    of the snap errors and of the fleet's gaps; returns the figure and its axes."""
+    figure = _figure(figsize=(6.5, 3.2))
+    ax = figure.subplots()
+    ax.hist(values, bins=bins, color="C0")
+    for x, style in lines:
+        ax.axvline(x, **style)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.set_title(title)
+    return figure, ax
 
 
 def _figure(figsize: tuple[float, float]) -> Figure:
