@@ -50,11 +50,11 @@ import numpy as np
 import pymunk
 
 import warehouse_phys
-from warehouse_phys.atomic import atomic_write_text
-from warehouse_phys.grid import WarehouseGrid
-from warehouse_phys.layouts import suggested_time_limit
+from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.physics import PhysicsConfig, PhysicsWorld
-from warehouse_phys.qlearning import QLearningConfig, train
+from warehouse_phys.rl.qlearning import QLearningConfig, train
+from warehouse_phys.rules.grid import WarehouseGrid
+from warehouse_phys.rules.layouts import suggested_time_limit
 
 FROZEN_LAKE = "FrozenLake-v1"
 GRID_ID = warehouse_phys.GRID_ENV_ID
@@ -332,7 +332,7 @@ def random_joint_actions(env: object, joint_steps: int, seed: int) -> list[dict[
 
 def fleet_stepper(robots: int, physics: bool, joint_steps: int) -> Callable[[], float]:
     """Random joint actions (WAIT included) for a lifelong fleet on an 8 x 10 floor."""
-    from warehouse_phys.fleet import parallel_env
+    from warehouse_phys.envs.fleet import parallel_env
 
     env = parallel_env(
         num_robots=robots, physics=physics, grid_rows=8, grid_cols=10, lifelong=True,
@@ -372,7 +372,7 @@ def fleet_figures(sizes: list[int], joint_steps: int, rounds: int) -> list[Figur
 def fleet_scale_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
     """Random joint actions (WAIT included) for a lifelong grid fleet on a 128 x 128 floor,
     robots on random distinct cells; counts robot-steps."""
-    from warehouse_phys.fleet import parallel_env
+    from warehouse_phys.envs.fleet import parallel_env
 
     env = parallel_env(
         num_robots=robots, grid_rows=128, grid_cols=128, on_delivery="new_package",
@@ -393,8 +393,8 @@ def fleet_scale_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
 def planner_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
     """The PIBT planner's plans alone (no env step between them: the same situation
     planned again) on the ``warehouse`` preset, lifelong; counts robot-steps planned."""
-    from warehouse_phys.fleet import parallel_env
-    from warehouse_phys.planning import pibt_policy
+    from warehouse_phys.envs.fleet import parallel_env
+    from warehouse_phys.rules.planning import pibt_policy
 
     env = parallel_env(num_robots=robots, layout="warehouse", on_delivery="new_package")
     observations, infos = env.reset(seed=0)
@@ -440,8 +440,8 @@ def physics_fleet_stepper(
     """Random joint actions (WAIT included) for a lifelong physics fleet on a 64 x 64
     floor, robots on random distinct cells; counts joint steps. With ``chipmunk``, each
     run appends the CPU time spent inside chipmunk's ``cpSpaceStep`` to it."""
-    from warehouse_phys import batched_physics
-    from warehouse_phys.fleet import parallel_env
+    from warehouse_phys.envs.fleet import parallel_env
+    from warehouse_phys.physics import batched as batched_physics
 
     env = parallel_env(
         num_robots=robots, physics=True, grid_rows=64, grid_cols=64, lifelong=True,

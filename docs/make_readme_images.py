@@ -13,11 +13,13 @@ import numpy as np
 import pygame
 
 import warehouse_phys
-from warehouse_phys import Action, fleet, sweep
-from warehouse_phys.fleet_learning import greedy_fleet_policy, record_fleet_episode, train_fleet
-from warehouse_phys.plots import learning_curve_figure, save_figure
-from warehouse_phys.qlearning import QLearningConfig, greedy_action, train
-from warehouse_phys.recording import record_episode
+from warehouse_phys import Action
+from warehouse_phys.apps import sweep
+from warehouse_phys.envs import fleet
+from warehouse_phys.rl.fleet_learning import greedy_fleet_policy, train_fleet
+from warehouse_phys.rl.qlearning import QLearningConfig, greedy_action, train
+from warehouse_phys.viz.plots import learning_curve_figure, save_figure
+from warehouse_phys.viz.recording import record_episode, record_fleet_episode
 
 HERE = Path(__file__).resolve().parent
 #: The fleet GIF's seed: one whose three packages the learned fleet all delivers.

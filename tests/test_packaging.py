@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from warehouse_phys.render import SPRITE_NAMES
+from warehouse_phys.drawing.render import SPRITE_NAMES
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -45,7 +45,7 @@ def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
         check=True,
     )  # fmt: skip
     script = (
-        "import warehouse_phys.render as r, gymnasium as gym\n"
+        "import warehouse_phys.drawing.render as r, gymnasium as gym\n"
         "print(r.sprite_path('robot.png'))\n"
         "env = gym.make('warehouse-robot-v0', render_mode='rgb_array')\n"
         "env.reset(seed=0)\n"

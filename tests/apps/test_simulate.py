@@ -1,0 +1,160 @@
+"""python -m warehouse_phys.simulate: the measures, the run folder and clear errors."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from warehouse_phys.apps.simulate import main, simulate
+from warehouse_phys.drawing.render import MAP_PACKAGE, MAP_ROBOT_COLOURS, fleet_map_frame
+from warehouse_phys.envs import fleet
+from warehouse_phys.rl.fleet_evaluation import evaluate_fleet, shortest_path_policy
+
+#: The benchmark maps beside the repository (MovingAI), absent on a fresh clone.
+MAPS = Path(__file__).resolve().parents[3] / "shared" / "maps"
+
+
+def test_the_simulation_counts_deliveries_waits_and_frames():
+    env = fleet.parallel_env(num_robots=5, layout="aisles", lifelong=True, max_cycles=40)
+    result, frames = simulate(env, shortest_path_policy, steps=40, seed=1, frames=8)
+    assert result.steps == 40
+    assert result.throughput == result.deliveries.sum() / 40
+    assert result.deliveries.sum() == env.deliveries.sum()
+    assert result.waits.shape == (7, 9)
+    assert (
+        result.waits[[r for r, _ in env.grid.shelves], [c for _, c in env.grid.shelves]].sum() == 0
+    )
+    assert len(frames) == 8  # the first, then evenly spread
+    assert frames[0].shape == (7 * 24, 9 * 24, 3)
+
+
+def test_the_command_writes_its_run_folder(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["--layout", "aisles", "--robots", "4", "--steps", "30", "--policy",
+                 "shortest", "--frames", "4", "--out", str(out), "--quiet"]) == 0  # fmt: skip
+    printed = capsys.readouterr().out
+    assert "throughput" in printed
+    assert "against the baselines" in printed  # 4 x 30 robot-steps: cheap
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["comparison"]) == {"shortest", "random"}
+    assert summary["comparison"]["shortest"]["deliveries"] == summary["deliveries"]
+    assert summary["steps"] == 30
+    assert summary["policy"] == "shortest"
+    assert len(summary["deliveries_per_step"]) == 30
+    assert sorted(p.name for p in out.iterdir()) == [
+        "congestion.png", "fleet.gif", "summary.json", "throughput.png"
+    ]  # fmt: skip
+    assert main(["--robots", "2", "--steps", "3", "--out", str(out), "--quiet",
+                 "--policy", "random"]) == 2  # fmt: skip
+    assert "--out" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--policy", "magic"], "unknown policy 'magic'"),
+        (["--robots", "300"], "300 robots need"),
+        (["--layout", "nowhere"], "unknown layout"),
+        (["--on-delivery", "vanish"], "invalid choice: 'vanish'"),
+        (["--layout", "aisles", "--rows", "5"], "not both"),
+        (["--policy", "missing.npz"], "missing.npz"),
+    ],
+)
+def test_bad_arguments_end_in_one_line(argv, message, capsys, tmp_path):
+    assert main([*argv, "--out", str(tmp_path / "x"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert message in err
+    assert err.count("\n") == 1
+    assert not (tmp_path / "x").exists()
+
+
+def test_map_frames_show_robots_packages_and_shelves_in_array_colours():
+    env = fleet.parallel_env(num_robots=3, layout="aisles")
+    env.reset(seed=0)
+    frame = fleet_map_frame(env.grid, env.robot_cells, env.package_cells, cell_px=6)
+    assert frame.shape == (7 * 6, 9 * 6, 3)
+    for i, (row, col) in enumerate(env.robot_cells.tolist()):
+        assert (frame[row * 6, col * 6] == MAP_ROBOT_COLOURS[i]).all()
+    for row, col in env.package_cells.tolist():
+        assert (frame[row * 6 + 3, col * 6 + 3] == MAP_PACKAGE).all()
+    # A package under a robot stays visible in the robot's middle.
+    cells = np.array([[0, 0]])
+    frame = fleet_map_frame(env.grid, cells, cells, cell_px=6)
+    assert (frame[0, 0] == MAP_ROBOT_COLOURS[0]).all()
+    assert (frame[3, 3] == MAP_PACKAGE).all()
+    assert len({tuple(c) for c in MAP_ROBOT_COLOURS.tolist()}) == 8
+
+
+def test_frames_are_spread_evenly_and_bounded():
+    env = fleet.parallel_env(num_robots=2, lifelong=True, max_cycles=100)
+    _, frames = simulate(env, shortest_path_policy, steps=100, frames=64)
+    assert len(frames) == 64
+    _, frames = simulate(env, shortest_path_policy, steps=5, frames=64)
+    assert len(frames) == 6  # the reset and each step
+
+
+def test_a_learned_table_drives_the_robots_and_a_policy_worse_than_a_baseline_is_named(
+    tmp_path, capsys
+):
+    from warehouse_phys.rl.fleet_learning import fleet_table_metadata, new_fleet_q_table
+    from warehouse_phys.rl.qlearning import QLearningConfig, save_q_table
+
+    table = tmp_path / "qtable.npz"
+    env = fleet.parallel_env(num_robots=2)
+    metadata = fleet_table_metadata(env, QLearningConfig(), "warehouse-robot-v0")
+    save_q_table(table, new_fleet_q_table(4, 5), metadata)  # all zeros: always LEFT
+    argv = ["--robots", "2", "--steps", "40", "--policy", str(table), "--frames", "0",
+            "--on-delivery", "park", "--out", str(tmp_path / "run"), "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "WORSE: qtable.npz delivers a lower throughput" in printed
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert {"policy": "qtable.npz", "reference": "shortest"} in summary["worse_than"]
+    assert not (tmp_path / "run" / "fleet.gif").exists()
+    assert main([*argv[:-3], "--out", str(tmp_path / "again"), "--no-compare", "--quiet"]) == 0
+    assert "against the baselines" not in capsys.readouterr().out
+
+
+def test_a_malformed_map_ends_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.map"
+    bad.write_text("type octile\nheight 2\nwidth 3\nmap\n...\n")  # one row short
+    assert main(["--layout", str(bad), "--out", str(tmp_path / "x"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "bad.map" in err
+    assert err.count("\n") == 1
+    assert main(["--layout", str(tmp_path / "none.map"), "--quiet"]) == 2
+    assert "none.map" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not (MAPS / "kiva-33-46.map").is_file(), reason=f"no benchmark maps in {MAPS}")
+def test_the_kiva_warehouse_map_runs_the_planner(tmp_path, capsys):
+    out = tmp_path / "kiva"
+    argv = ["--layout", str(MAPS / "kiva-33-46.map"), "--robots", "64", "--steps", "8",
+            "--frames", "3", "--out", str(out), "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    assert "pibt, 64 robots on kiva-33-46, 8 steps" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["steps"] == 8
+    assert summary["refused"] == 0  # the planner's plans are all granted
+    from PIL import Image
+
+    with Image.open(out / "fleet.gif") as gif:
+        assert gif.size == (46 * 21, 33 * 21)  # the longer side fits 1000 px
+        assert gif.n_frames == 3
+
+
+@pytest.mark.parametrize(("on_delivery", "seed"), [("park", 2), ("leave", 2), ("park", 3)])
+def test_a_one_shot_run_measures_as_evaluate_fleet_does(on_delivery, seed):
+    env = fleet.parallel_env(num_robots=4, layout="aisles", on_delivery=on_delivery,
+                             max_cycles=30)  # fmt: skip
+    evaluation = evaluate_fleet(env, shortest_path_policy, seeds=range(seed, seed + 1))
+    result, _ = simulate(env, shortest_path_policy, steps=30, seed=seed)
+    assert result.delivered == evaluation.delivered
+    assert result.makespan == evaluation.makespan
+    assert result.sum_of_costs == evaluation.sum_of_costs
+    assert int(result.shortest.sum()) == evaluation.all_shortest_steps
+    assert result.walled_off == evaluation.walled_off
+    assert result.refused == evaluation.refused
+    assert "makespan" in result.summary()
+    assert result.to_json()["sum_of_costs"] == result.sum_of_costs

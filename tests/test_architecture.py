@@ -1,0 +1,126 @@
+"""The package's floors: each imports only the floors below it, the old module paths
+still import, and the rules and physics floors keep their functions short."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import subprocess
+import sys
+
+import pytest
+
+from tests.conftest import ROOT
+from warehouse_phys._moved import MOVED
+
+PACKAGE = ROOT / "warehouse_phys"
+#: Each floor's height: a module may import its own floor's modules and lower floors'.
+#: physics and drawing stand side by side, neither importing the other.
+FLOORS = {"files": 0, "rules": 1, "physics": 2, "drawing": 2, "envs": 3, "rl": 4, "viz": 5,
+          "apps": 6}  # fmt: skip
+#: Longest function of the rules and physics floors, its docstring left out [lines].
+MAX_FUNCTION_LINES = 60
+
+
+def floor_modules() -> list:
+    return sorted(path for floor in FLOORS for path in (PACKAGE / floor).glob("*.py"))
+
+
+def runtime_imports(tree: ast.Module) -> list[tuple[int, str]]:
+    """``(line, module)`` of every import of the package, lazy ones included, but not
+    those made for type checking only."""
+    # Type checking's imports, and a module __getattr__'s: the one way a name that moved
+    # to a floor above is still found where it was (on demand, never at import).
+    exempt_blocks = [
+        block
+        for block in ast.walk(tree)
+        if (isinstance(block, ast.If) and "TYPE_CHECKING" in ast.unparse(block.test))
+        or (isinstance(block, ast.FunctionDef) and block.name == "__getattr__")
+    ]
+    checking_only = {
+        id(node) for block in exempt_blocks for statement in block.body
+        for node in ast.walk(statement)
+    }  # fmt: skip
+    found = []
+    for node in ast.walk(tree):
+        if id(node) in checking_only:
+            continue
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names = [node.module] if node.module != "warehouse_phys" else [
+                f"warehouse_phys.{alias.name}" for alias in node.names
+            ]  # fmt: skip
+            found += [(node.lineno, name) for name in names]
+        elif isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+    return [(line, name) for line, name in found if name.startswith("warehouse_phys.")]
+
+
+@pytest.mark.parametrize("path", floor_modules(), ids=lambda path: path.stem)
+def test_every_module_imports_only_its_floor_and_those_below(path):
+    floor = path.parent.name
+    for line, name in runtime_imports(ast.parse(path.read_text())):
+        parts = name.split(".")
+        assert parts[1] not in MOVED, f"{path.name}:{line} imports the old path {name}"
+        if parts[1] in FLOORS and parts[1] != floor:
+            assert FLOORS[parts[1]] < FLOORS[floor], (
+                f"{floor}/{path.name}:{line} imports {name}, on a floor not below {floor}"
+            )
+
+
+def test_the_floor_check_finds_an_upward_import():
+    tree = ast.parse("from warehouse_phys.envs.fleet import parallel_env\n")
+    assert runtime_imports(tree) == [(1, "warehouse_phys.envs.fleet")]
+    checking = "if TYPE_CHECKING:\n    import warehouse_phys.envs\n"
+    assert runtime_imports(ast.parse(checking)) == []
+    lazy = "def f():\n    from warehouse_phys.viz import plots\n"
+    assert runtime_imports(ast.parse(lazy)) == [(2, "warehouse_phys.viz")]
+
+
+@pytest.mark.parametrize("floor", ["rules", "physics"])
+def test_functions_of_the_rules_and_physics_floors_are_short(floor):
+    for path in sorted((PACKAGE / floor).glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            first = node.body[0]
+            has_doc = isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant)
+            start = first.end_lineno + 1 if has_doc and len(node.body) > 1 else first.lineno
+            lines = node.end_lineno - start + 1
+            assert lines <= MAX_FUNCTION_LINES, f"{path.name}: {node.name} has {lines} lines"
+
+
+@pytest.mark.parametrize("old", sorted(MOVED))
+def test_every_old_module_path_is_the_module_at_its_new_one(old):
+    module = importlib.import_module(f"warehouse_phys.{old}")
+    assert module is importlib.import_module(f"warehouse_phys.{MOVED[old]}")
+    assert module.__spec__.name == f"warehouse_phys.{MOVED[old]}"  # its own spec kept
+
+
+def test_the_names_the_readme_and_notebooks_import_still_import_from_the_old_paths():
+    code = (
+        "from warehouse_phys.fleet import parallel_env, env\n"
+        "from warehouse_phys.planning import pibt_policy\n"
+        "from warehouse_phys.qlearning import QLearningConfig, evaluate, train, table_metadata\n"
+        "from warehouse_phys.qlearning import load_q_table, save_q_table, greedy_action\n"
+        "from warehouse_phys.recording import record_episode, sample_snap_errors\n"
+        "from warehouse_phys.fleet_learning import greedy_fleet_policy, record_fleet_episode\n"
+        "from warehouse_phys.fleet_evaluation import compare_policies, evaluate_throughput\n"
+        "from warehouse_phys.physics import PhysicsConfig, PhysicsWorld, speed_profile\n"
+        "from warehouse_phys.envs import WarehouseGridEnv, WarehousePhysicsEnv\n"
+        "from warehouse_phys.layouts import suggested_time_limit\n"
+        "from warehouse_phys.simulate import simulate\n"
+        "from warehouse_phys import Action, batched_physics, fleet, plots, sweep, train\n"
+        "import warehouse_phys.train as app\n"
+        "assert app.main is train.main and fleet.parallel_env is parallel_env\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.parametrize("app", ["train", "play", "simulate", "sweep"])
+def test_python_dash_m_runs_every_app_by_its_old_name(app):
+    result = subprocess.run(
+        [sys.executable, "-m", f"warehouse_phys.{app}", "--help"], capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith(f"usage: python -m warehouse_phys.{app}")

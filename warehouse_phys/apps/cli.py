@@ -1,0 +1,177 @@
+"""What the package's command lines share: usage errors, argument types, the floor to use.
+
+``python -m warehouse_phys.train`` and ``python -m warehouse_phys.play`` both
+pick an environment with ``--env grid|phys`` and a floor with ``--rows``,
+``--cols`` or ``--layout``; this module parses those the same way for both.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NoReturn
+
+from warehouse_phys.apps.runs import ENVIRONMENTS, Floor
+from warehouse_phys.rules.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
+from warehouse_phys.rules.layouts import FLEET_PRESETS, PRESETS, read_movingai
+
+if TYPE_CHECKING:
+    from warehouse_phys.files.runfolder import RunFolder
+
+DEFAULT_ENV = "phys"
+#: Most robots a command takes; the floor may allow fewer (a clear error says so).
+MAX_CLI_ROBOTS = 10_000
+
+
+class UsageError(Exception):
+    """A bad command line or input file: reported in one line, exit status 2."""
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """An ``argparse`` parser that raises :class:`UsageError` instead of exiting."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(message)
+
+
+def bounded_int(minimum: int, what: str, maximum: int | None = None) -> Any:
+    """An argument type: an integer of at least ``minimum`` (and at most ``maximum``),
+    described as ``what`` in errors."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if value < minimum or (maximum is not None and value > maximum):
+            raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+        return value
+
+    return parse
+
+
+def add_env_argument(parser: argparse.ArgumentParser, *, default: str | None, note: str) -> None:
+    """Add ``--env grid|phys``; ``note`` ends its help, after the default's id."""
+    parser.add_argument(
+        "--env",
+        choices=sorted(ENVIRONMENTS),
+        default=default,
+        help=f"environment: phys ({ENVIRONMENTS['phys']}) or grid ({ENVIRONMENTS['grid']}); "
+        f"default {DEFAULT_ENV}{note}",
+    )
+
+
+def add_robots_argument(parser: argparse.ArgumentParser, *, what: str) -> None:
+    """``--robots N``, 1 (the single robot, the default) to :data:`MAX_CLI_ROBOTS`; ``what`` says
+    what a fleet does in this command."""
+    parser.add_argument(
+        "--robots",
+        type=bounded_int(1, f"a number of robots from 1 to {MAX_CLI_ROBOTS:,}", MAX_CLI_ROBOTS),
+        default=1,
+        help=f"{what} (default 1, the single robot)",
+    )
+
+
+def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = "") -> None:
+    """Add ``--rows``, ``--cols`` and ``--layout``, read back by :func:`floor_from_args`."""
+    parser.add_argument(
+        "--rows",
+        type=bounded_int(MIN_SIDE, f"{MIN_SIDE} to {MAX_SIDE} rows", MAX_SIDE),
+        help=f"grid rows, {MIN_SIDE} to {MAX_SIDE} (default 4{table_note})",
+    )
+    parser.add_argument(
+        "--cols",
+        type=bounded_int(MIN_SIDE, f"{MIN_SIDE} to {MAX_SIDE} columns", MAX_SIDE),
+        help=f"grid columns, {MIN_SIDE} to {MAX_SIDE} (default 5{table_note})",
+    )
+    parser.add_argument(
+        "--max-steps",
+        type=bounded_int(1, "a positive number of steps"),
+        metavar="N",
+        help="time limit of an episode (default: the floor's suggested limit, "
+        "200 on the default floor)",
+    )
+    parser.add_argument(
+        "--layout",
+        metavar="NAME_OR_FILE",
+        help=f"a warehouse layout: a preset ({', '.join([*PRESETS, *FLEET_PRESETS])}), a "
+        "MovingAI .map file or a text file of rows ('.' floor, '#' shelf, 'P' package "
+        "cell, 'S' start)",
+    )
+
+
+def floor_from_args(args: argparse.Namespace) -> Floor:
+    """The :class:`Floor` that ``--rows``, ``--cols``, ``--layout`` and ``--max-steps`` ask for.
+
+    Raises:
+        UsageError: for ``--layout`` with ``--rows`` or ``--cols``, an unknown
+            preset, or a layout file that cannot be read or is not a valid layout.
+    """
+    max_steps = getattr(args, "max_steps", None)
+    if args.layout is None:
+        return Floor(rows=args.rows, cols=args.cols, max_steps=max_steps)
+    if args.rows is not None or args.cols is not None:
+        raise UsageError("--rows and --cols come from the layout; leave them out with --layout")
+    return floor_from_layout(args.layout, max_steps=max_steps)
+
+
+def floor_from_layout(name_or_file: str, *, max_steps: int | None = None) -> Floor:
+    """The :class:`Floor` of a layout preset's name or of a layout text file.
+
+    Raises:
+        UsageError: for an unknown preset, or a file that cannot be read or is
+            not a valid layout.
+    """
+    if name_or_file in PRESETS:
+        return Floor(preset=name_or_file, label=name_or_file, max_steps=max_steps)
+    if name_or_file in FLEET_PRESETS:
+        layout = FLEET_PRESETS[name_or_file]
+        return Floor(layout=layout, label=name_or_file, max_steps=max_steps)
+    path = Path(name_or_file)
+    if path.suffix == ".map":  # a MovingAI benchmark map
+        try:
+            grid = read_movingai(path)
+        except ValueError as error:
+            raise UsageError(f"--layout {error}") from None
+        return Floor(layout=grid.layout, label=path.stem, max_steps=max_steps)
+    if not path.is_file():
+        raise UsageError(
+            f"--layout {name_or_file!r} is neither a preset ({', '.join(PRESETS)}) nor a file"
+        )
+    try:
+        lines = [line.rstrip() for line in path.read_text(encoding="utf-8").splitlines()]
+    except (OSError, UnicodeDecodeError) as error:
+        raise UsageError(f"--layout {path}: cannot be read ({error})") from None
+    while lines and not lines[-1]:
+        lines.pop()
+    while lines and not lines[0]:
+        lines.pop(0)
+    try:
+        WarehouseGrid.from_layout(lines)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"--layout {path}: {error}") from None
+    return Floor(layout=tuple(lines), label=path.stem, max_steps=max_steps)
+
+
+def open_run_folder(
+    out: Path | None, new: Path, files: Sequence[str], *, overwrite: bool
+) -> RunFolder:
+    """The opened run folder of a command: ``out`` (``--out``; an earlier run's ``files``
+    in it are replaced only with ``overwrite``), or else the new folder ``new``.
+
+    Raises:
+        UsageError: if the folder cannot be used, the message beginning with ``--out``
+            when ``out`` was given.
+    """
+    from warehouse_phys.files.runfolder import RunFolder, RunFolderError
+
+    if out is None:
+        folder = RunFolder(new, files, new=True)
+    else:
+        folder = RunFolder(out, files, overwrite=overwrite)
+    try:
+        folder.open()
+    except RunFolderError as error:
+        raise UsageError(f"--out {error}" if out is not None else str(error)) from None
+    return folder

@@ -1,0 +1,511 @@
+"""``python -m warehouse_phys.simulate``: run a fleet policy on a floor and measure it.
+
+    python -m warehouse_phys.simulate --layout ../shared/maps/kiva-33-46.map --robots 192
+    python -m warehouse_phys.simulate --layout warehouse --robots 128 --policy shortest
+    python -m warehouse_phys.simulate --layout aisles --robots 4 --on-delivery park \\
+        --policy runs/grid-aisles-seed0-.../qtable.npz
+
+A fleet of ``--robots`` robots on ``--layout`` (a preset, a ``.map`` file or a text
+layout file; or ``--rows``/``--cols``) follows ``--policy`` for ``--steps`` joint
+steps: ``pibt`` (the planner of :mod:`warehouse_phys.rules.planning`), ``shortest``
+(each robot a shortest move, waiting when blocked), ``random``, or a fleet table
+written by ``python -m warehouse_phys.train --robots N``. ``--on-delivery``
+(default ``new_package``: lifelong) says what a robot does with a delivered
+package; ``--physics`` drives the physics twin. The command prints the throughput
+(deliveries per step), deliveries, waits and refused moves (one-shot, also the
+packages delivered, the makespan, the sum of costs against the shortest paths' and
+the packages walled off); when it is cheap (robots x steps at most
+:data:`COMPARE_BUDGET` on the grid; ``--no-compare`` skips it) it runs the
+shortest-path and random baselines on the same floor, seed and steps and names a
+policy that does worse. It writes a run folder (default
+``runs/simulate-<floor>-<robots>-<policy>-seed<seed>-<time>``): ``summary.json``
+(with the comparison), ``throughput.png`` (deliveries over time), ``congestion.png``
+(waits on each cell) and ``fleet.gif`` (``--frames`` frames evenly spread, sized to
+fit a 1000-pixel frame). Bad arguments end with exit status 2 and a one-line message.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from warehouse_phys.apps.cli import (
+    MAX_CLI_ROBOTS,
+    ArgumentParser,
+    UsageError,
+    bounded_int,
+    open_run_folder,
+)
+from warehouse_phys.envs.fleet import DELIVERY_MODES, WarehouseFleetEnv, parallel_env
+from warehouse_phys.rl.fleet_evaluation import (
+    FleetPolicy,
+    compare_policies,
+    random_fleet_policy,
+    shortest_path_policy,
+    walled_off_packages,
+    worse_policies,
+)
+
+PROG = "python -m warehouse_phys.simulate"
+POLICIES = ("pibt", "shortest", "random")
+RUN_FILES = ("summary.json", "throughput.png", "congestion.png", "fleet.gif")
+DEFAULT_RUNS_DIR = Path("runs")
+#: Frames of the GIF by default: enough to see the traffic, few enough to stay small.
+DEFAULT_FRAMES = 64
+#: The baselines a run is compared with, when that is cheap.
+BASELINES = ("shortest", "random")
+#: Robot-steps (robots x steps) up to which the command also runs the baselines: a few
+#: seconds on the grid; the physics world is never compared.
+COMPARE_BUDGET = 200_000
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """What a fleet did in one run of :func:`simulate`."""
+
+    layout: str
+    robots: int
+    policy: str
+    seed: int
+    on_delivery: str
+    physics: bool
+    #: Deliveries at each joint step.
+    deliveries: np.ndarray
+    #: Waits counted on each cell, ``(rows, cols)``: a robot that had not delivered and
+    #: stayed on its cell for a step (asked to WAIT, refused or bumping).
+    waits: np.ndarray
+    #: Moves that traffic turned into waits.
+    refused: int
+    #: Seconds of CPU time the run took, the environment and the policy together.
+    cpu_seconds: float
+    #: One-shot runs only (``on_delivery`` ``"park"`` or ``"leave"``): the step at which
+    #: each robot delivered, 0 for a robot that did not, ``(robots,)``.
+    delivered_at: np.ndarray | None = None
+    #: One-shot runs only: each robot's shortest path to its package from its start.
+    shortest: np.ndarray | None = None
+    #: One-shot runs only: undelivered packages that parked robots wall off at the end.
+    walled_off: int = 0
+
+    @property
+    def steps(self) -> int:
+        return len(self.deliveries)
+
+    @property
+    def one_shot(self) -> bool:
+        return self.delivered_at is not None
+
+    @property
+    def delivered(self) -> int:
+        """Robots that delivered their package (one-shot), or deliveries (lifelong)."""
+        if self.delivered_at is None:
+            return int(self.deliveries.sum())
+        return int(np.count_nonzero(self.delivered_at))
+
+    @property
+    def makespan(self) -> int:
+        """One-shot: the step of the last delivery, or the run's length when a robot did
+        not deliver."""
+        if self.delivered_at is None or not self.delivered_at.all():
+            return self.steps
+        return int(self.delivered_at.max()) if len(self.delivered_at) else 0
+
+    @property
+    def sum_of_costs(self) -> int:
+        """One-shot: each robot's steps until it delivered, an undelivered robot counted at
+        the run's length, summed."""
+        if self.delivered_at is None:
+            return 0
+        return int(np.where(self.delivered_at > 0, self.delivered_at, self.steps).sum())
+
+    @property
+    def throughput(self) -> float:
+        """Deliveries per step."""
+        return float(self.deliveries.mean()) if self.steps else 0.0
+
+    def measures(self) -> str:
+        """The measures in one line: throughput, deliveries, waits and refused moves; and
+        one-shot, the makespan and the sum of costs against the shortest paths'."""
+        line = (
+            f"throughput {self.throughput:.2f} deliveries/step, "
+            f"{int(self.deliveries.sum()):,} deliveries, {int(self.waits.sum()):,} waits, "
+            f"{self.refused:,} refused moves"
+        )
+        if self.delivered_at is not None and self.shortest is not None:
+            walled = f" ({self.walled_off:,} walled off)" if self.walled_off else ""
+            line += (
+                f"; {self.delivered:,}/{self.robots:,} delivered{walled}, makespan "
+                f"{self.makespan}, sum of costs {self.sum_of_costs:,} against "
+                f"{int(self.shortest.sum()):,} on shortest paths"
+            )
+        return line
+
+    def summary(self) -> str:
+        return (
+            f"{self.policy}, {self.robots:,} robots on {self.layout}, {self.steps} steps "
+            f"({self.on_delivery}): {self.measures()}"
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "layout": self.layout,
+            "robots": self.robots,
+            "policy": self.policy,
+            "seed": self.seed,
+            "on_delivery": self.on_delivery,
+            "physics": self.physics,
+            "steps": self.steps,
+            "throughput": self.throughput,
+            "deliveries": int(self.deliveries.sum()),
+            "waits": int(self.waits.sum()),
+            "refused": self.refused,
+            "cpu_seconds": self.cpu_seconds,
+            **self._one_shot_json(),
+            "deliveries_per_step": self.deliveries.tolist(),
+        }
+
+    def _one_shot_json(self) -> dict[str, Any]:
+        if self.delivered_at is None or self.shortest is None:
+            return {}
+        return {
+            "delivered": self.delivered,
+            "undelivered": self.robots - self.delivered,
+            "walled_off": self.walled_off,
+            "makespan": self.makespan,
+            "sum_of_costs": self.sum_of_costs,
+            "shortest_paths": int(self.shortest.sum()),
+        }
+
+
+def make_policy(name: str, env: WarehouseFleetEnv, *, seed: int) -> FleetPolicy:
+    """The fleet policy called ``name``: one of :data:`POLICIES` or a fleet table's path.
+
+    Raises:
+        ValueError: for an unknown name, or a table that does not fit ``env``'s floor.
+    """
+    if name == "pibt":
+        from warehouse_phys.rules.planning import pibt_policy
+
+        return pibt_policy(seed=seed)
+    if name == "shortest":
+        return shortest_path_policy
+    if name == "random":
+        return random_fleet_policy(seed)
+    if name.endswith(".npz"):
+        from warehouse_phys.rl.fleet_learning import greedy_fleet_policy
+        from warehouse_phys.rl.qlearning import QTableError, load_q_table
+
+        try:
+            q, _ = load_q_table(name, rows=env.grid.rows, cols=env.grid.cols)
+        except QTableError as error:
+            raise ValueError(str(error)) from None
+        expected = [*env.observation_space(env.possible_agents[0]).nvec.tolist(), 5]
+        if list(q.shape) != expected:
+            raise ValueError(
+                f"{name}: a table of shape {q.shape} does not fit this fleet's observations "
+                f"(expected {tuple(expected)})"
+            )
+        return greedy_fleet_policy(q)
+    raise ValueError(f"unknown policy {name!r}: choose {', '.join(POLICIES)} or a table (.npz)")
+
+
+def simulate(
+    env: WarehouseFleetEnv,
+    policy: FleetPolicy,
+    *,
+    steps: int,
+    seed: int = 0,
+    frames: int = 0,
+    on_step: Any = None,
+    name: str = "policy",
+    layout: str = "",
+    cell_px: int | None = None,
+) -> tuple[Simulation, list[np.ndarray]]:
+    """Play ``policy`` on ``env`` from ``env.reset(seed=seed)`` for ``steps`` joint steps
+    (fewer if every robot finished); returns the measures and ``min(frames, steps + 1)``
+    map frames (:func:`~warehouse_phys.drawing.render.fleet_map_frame`, ``cell_px`` pixels a cell,
+    by default what fits 1000 pixels), the first at the reset, the last after the last
+    step, evenly spread (fewer when the episode ends early).
+    ``on_step()`` is called after each step (a progress bar)."""
+    from warehouse_phys.drawing.render import fleet_map_frame
+
+    observations, infos = env.reset(seed=seed)
+    grid, cols = env.grid, env.grid.cols
+    waits = np.zeros(grid.rows * cols, dtype=np.int64)
+    cells, packages = env.robot_cells, env.package_cells
+    shortest = env.distances.lookup(
+        cells[:, 0] * cols + cells[:, 1], packages[:, 0] * cols + packages[:, 1]
+    ).astype(np.int64)
+    delivered_at = np.zeros(env.num_robots, dtype=np.int64)
+    deliveries, refused, pictures = [], 0, []
+    # The steps after which a frame is taken (0: at the reset), evenly spread.
+    shots = np.unique(np.linspace(0, steps, min(frames, steps + 1)).round().astype(int))
+
+    def picture() -> None:
+        pictures.append(fleet_map_frame(grid, env.robot_cells, env.package_cells, cell_px=cell_px,
+                                        parked=env.parked, on_floor=env.on_floor))  # fmt: skip
+
+    if frames:
+        picture()
+    shot = 1  # the next of shots to take
+    started = time.process_time()
+    for step in range(steps):
+        if not env.agents:
+            break
+        before = env.robot_cells.copy()
+        working = env.on_floor & ~env.parked
+        actions = policy(env, observations, infos)
+        delivered_before = int(env.deliveries.sum())
+        observations, _, _, _, infos = env.step(actions)
+        if len(observations) != len(env.agents):
+            observations = {agent: observations[agent] for agent in env.agents}
+        deliveries.append(int(env.deliveries.sum()) - delivered_before)
+        delivered_at[(env.deliveries > 0) & (delivered_at == 0)] = step + 1
+        refused += sum(info["refused"] for info in infos.values())
+        stayed = working & (env.robot_cells == before).all(axis=1)
+        np.add.at(waits, before[stayed, 0] * cols + before[stayed, 1], 1)
+        if shot < len(shots) and shots[shot] == step + 1:
+            picture()
+            shot += 1
+        if on_step is not None:
+            on_step()
+    result = Simulation(
+        layout=layout or f"{grid.rows}x{grid.cols}",
+        robots=env.num_robots,
+        policy=name,
+        seed=seed,
+        on_delivery=env.on_delivery,
+        physics=env.physics,
+        deliveries=np.array(deliveries, dtype=np.int64),
+        waits=waits.reshape(grid.rows, grid.cols),
+        refused=int(refused),
+        cpu_seconds=time.process_time() - started,
+        **(
+            {}
+            if env.lifelong
+            else {
+                "delivered_at": delivered_at,
+                "shortest": shortest,
+                "walled_off": walled_off_packages(env) if not delivered_at.all() else 0,
+            }
+        ),
+    )
+    return result, pictures
+
+
+def run_baselines(
+    env: WarehouseFleetEnv, *, steps: int, seed: int = 0, skip: str = ""
+) -> dict[str, Simulation]:
+    """The :data:`BASELINES` (but ``skip``) on ``env`` with the same seed and steps, by name."""
+    runs: dict[str, Simulation] = {}
+    for name in BASELINES:
+        if name != skip:
+            policy = make_policy(name, env, seed=seed)
+            runs[name], _ = simulate(env, policy, steps=steps, seed=seed, name=name)
+    return runs
+
+
+def comparison_table(runs: dict[str, Simulation]) -> str:
+    """:func:`~warehouse_phys.rl.fleet_evaluation.compare_policies` of ``runs`` by name: one
+    line of measures each, then a ``WORSE:`` line for each run below a baseline."""
+    return compare_policies({name: _Row(run) for name, run in runs.items()})
+
+
+@dataclass(frozen=True)
+class _Row:
+    """A run as :func:`compare_policies` shows it: its measures without its name."""
+
+    run: Simulation
+
+    @property
+    def throughput(self) -> float:
+        return self.run.throughput
+
+    def summary(self) -> str:
+        return self.run.measures()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = ArgumentParser(
+        prog=PROG,
+        description="Run a fleet policy on a floor; print and save its throughput.",
+    )
+    parser.add_argument("--layout", help="a preset, a MovingAI .map file or a layout file")
+    parser.add_argument("--rows", type=bounded_int(2, "at least 2 rows"), help="empty floor rows")
+    parser.add_argument("--cols", type=bounded_int(2, "at least 2 columns"), help="columns")
+    parser.add_argument(
+        "--robots",
+        type=bounded_int(1, f"a number of robots from 1 to {MAX_CLI_ROBOTS:,}", MAX_CLI_ROBOTS),
+        default=4,
+        help="robots in the fleet (default 4)",
+    )
+    parser.add_argument(
+        "--policy", default="pibt", help="pibt (default), shortest, random, or a table (.npz)"
+    )
+    parser.add_argument(
+        "--steps", type=bounded_int(1, "a positive number of steps"), default=256,
+        help="joint steps (default 256)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--on-delivery", choices=DELIVERY_MODES, default="new_package",
+        help="what a robot does with a delivered package (default new_package: lifelong)",
+    )  # fmt: skip
+    parser.add_argument("--physics", action="store_true", help="drive the physics twin")
+    parser.add_argument("--seed", type=bounded_int(0, "a seed of 0 or more"), default=0)
+    parser.add_argument(
+        "--frames", type=bounded_int(0, "a number of frames of 0 or more"),
+        default=DEFAULT_FRAMES, help=f"GIF frames (default {DEFAULT_FRAMES}; 0: no GIF)",
+    )  # fmt: skip
+    parser.add_argument("--out", type=Path, help="run folder to write")
+    parser.add_argument(
+        "--overwrite", action="store_true", help="reuse --out holding an earlier run's files"
+    )
+    parser.add_argument(
+        "--no-compare", action="store_true",
+        help=f"never run the baselines ({', '.join(BASELINES)}); they run by default when "
+        f"robots x steps is at most {COMPARE_BUDGET:,} on the grid",
+    )  # fmt: skip
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    from warehouse_phys.files.runfolder import RunFolderError, RunWriteError
+
+    try:
+        args = build_parser().parse_args(argv)
+        env, policy = _setup(args)
+        label = _floor_label(args)
+        name = (
+            f"simulate-{label}-{args.robots}-{Path(args.policy).stem}-seed{args.seed}-"
+            f"{time.strftime('%Y%m%d-%H%M%S')}"
+        )
+        folder = open_run_folder(
+            args.out, DEFAULT_RUNS_DIR / name, RUN_FILES, overwrite=args.overwrite
+        )
+        finished = False
+        try:
+            result, frames = _run(args, env, policy, label)
+            runs = {result.policy: result}
+            if _compare(args):
+                runs |= run_baselines(env, steps=args.steps, seed=args.seed, skip=result.policy)
+            _write(folder, env, result, frames, runs)
+            finished = True
+        finally:
+            folder.close(remove_if_empty=not finished)
+    except (UsageError, RunFolderError) as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 2
+    except RunWriteError as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    print(result.summary())
+    if len(runs) > 1:
+        print("against the baselines, on the same floor, seed and steps:")
+        print(comparison_table(runs))
+    print(f"wrote {folder.path}/: {', '.join(folder.written)}")
+    return 0
+
+
+def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
+    if args.layout is not None and (args.rows is not None or args.cols is not None):
+        raise UsageError("give --layout or --rows/--cols, not both")
+    floor: dict[str, Any] = {"layout": args.layout}
+    if args.layout is None:
+        floor = {"grid_rows": args.rows or 4, "grid_cols": args.cols or 5}
+    try:
+        env = parallel_env(
+            num_robots=args.robots, physics=args.physics, on_delivery=args.on_delivery,
+            max_cycles=args.steps, observation=_observation_of(args.policy), **floor,
+        )  # fmt: skip
+        policy = make_policy(args.policy, env, seed=args.seed)
+    except (ValueError, TypeError, OSError) as error:
+        raise UsageError(str(error).splitlines()[0]) from None
+    return env, policy
+
+
+def _compare(args: argparse.Namespace) -> bool:
+    """Whether the baselines run too: unless --no-compare, on the grid, when cheap."""
+    return not args.no_compare and not args.physics and args.robots * args.steps <= COMPARE_BUDGET
+
+
+def _observation_of(policy: str) -> str:
+    """The observation a table was trained on (its shape says), else ``"local"``."""
+    if not policy.endswith(".npz"):
+        return "local"
+    from warehouse_phys.rl.qlearning import QTableError, load_q_table
+
+    try:
+        q, _ = load_q_table(policy)
+    except (QTableError, OSError) as error:
+        raise ValueError(f"--policy {error}") from None
+    return "neighbours" if q.ndim == 6 else "local"
+
+
+def _floor_label(args: argparse.Namespace) -> str:
+    if args.layout is None:
+        return f"{args.rows or 4}x{args.cols or 5}"
+    return Path(args.layout).stem if args.layout.endswith(".map") else Path(args.layout).name
+
+
+def _run(
+    args: argparse.Namespace, env: WarehouseFleetEnv, policy: FleetPolicy, label: str
+) -> tuple[Simulation, list[np.ndarray]]:
+    from tqdm import tqdm
+
+    # disable=None: tqdm switches itself off when stderr is not a terminal.
+    with tqdm(total=args.steps, desc="simulating", unit="step",
+              disable=True if args.quiet else None) as bar:  # fmt: skip
+        try:
+            return simulate(
+                env, policy, steps=args.steps, seed=args.seed, frames=args.frames,
+                on_step=bar.update, name=Path(args.policy).name, layout=label,
+            )  # fmt: skip
+        except ValueError as error:  # a table's observation that does not fit, ...
+            raise UsageError(str(error).splitlines()[0]) from None
+
+
+def _write(
+    folder: Any,
+    env: WarehouseFleetEnv,
+    result: Simulation,
+    frames: list,
+    runs: dict[str, Simulation],
+) -> None:
+    from warehouse_phys.drawing.animation import Animation
+    from warehouse_phys.files.atomic import atomic_write_text
+    from warehouse_phys.viz.plots import congestion_figure, save_figure, throughput_figure
+
+    summary = result.to_json()
+    if len(runs) > 1:
+        keys = ("throughput", "deliveries", "waits", "refused")
+        summary["comparison"] = {
+            name: {key: run.to_json()[key] for key in keys} for name, run in runs.items()
+        }
+        worse = worse_policies(runs)
+        summary["worse_than"] = [{"policy": name, "reference": ref} for name, ref in worse]
+    text = json.dumps(summary, indent=2) + "\n"
+    folder.write("summary.json", lambda path: atomic_write_text(path, text))
+    folder.write(
+        "throughput.png",
+        lambda path: save_figure(throughput_figure(result.deliveries, result.summary()), path),
+    )
+    folder.write(
+        "congestion.png", lambda path: save_figure(congestion_figure(env.grid, result.waits), path)
+    )
+    if frames:
+        folder.write("fleet.gif", lambda path: Animation(frames, fps=8).save(path))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

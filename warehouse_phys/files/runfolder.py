@@ -1,0 +1,203 @@
+"""A run folder: where one training run writes its files, and nobody else at the same time.
+
+The policy, which ``python -m warehouse_phys.train`` follows:
+
+- A new folder is created for the run. An existing one is used only if it is
+  empty, or, with ``overwrite=True``, if it holds nothing but an earlier run's
+  files, which are then removed before the run starts: a folder never mixes
+  the files of two runs.
+- While the run lasts, the process holds an exclusive lock on the folder
+  (``flock``), so a second run into the same folder is refused at once; the
+  operating system releases the lock when the process ends, however it ends.
+- The folder is proven writable, by writing and removing a file, before any
+  training starts. Temporary files that a killed run left behind are removed.
+- Every file is written atomically (:mod:`warehouse_phys.files.atomic`), so each file
+  in the folder is complete; a write that fails raises :class:`RunWriteError`
+  naming the file and the reason, and the files written before it stay.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import os
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from types import TracebackType
+from typing import TypeVar
+
+from warehouse_phys.files.atomic import atomic_write, temporary_files
+
+T = TypeVar("T")
+
+#: The file with which a run folder is proven writable (removed at once).
+_PROBE_FILE = "write-test"
+
+
+class RunFolderError(Exception):
+    """A run folder that this run may not use (not empty, in use, not a folder)."""
+
+
+class RunWriteError(Exception):
+    """A file of the run could not be written; the message names it and says why."""
+
+
+class RunFolder:
+    """The folder of one run, locked for it from :meth:`open` to :meth:`close`.
+
+    Args:
+        path: The folder.
+        run_files: The names of the files a run writes there.
+        overwrite: Whether a folder holding an earlier run's files (and
+            nothing else) may be reused; those files are removed.
+        new: Whether ``path`` must not exist yet: the folder is then created
+            with ``os.mkdir``, which fails if another process created it first.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        run_files: Iterable[str],
+        *,
+        overwrite: bool = False,
+        new: bool = False,
+    ) -> None:
+        self.path = Path(path)
+        self.run_files = tuple(run_files)
+        self.overwrite = overwrite
+        self.new = new
+        #: The names of the files written so far by :meth:`write`, in order.
+        self.written: list[str] = []
+        self._handle: int | None = None
+        self._created = False
+
+    def open(self) -> RunFolder:
+        """Create or check the folder, lock it, clean it and prove it writable.
+
+        Raises:
+            RunFolderError: if the path is not a folder, the folder holds files
+                of its own (or, without ``overwrite``, an earlier run's), or
+                another run holds it.
+            RunWriteError: if the folder cannot be created or written.
+        """
+        path = self.path
+        try:
+            exists = path.exists()
+        except OSError as error:  # a name too long for the file system, say
+            raise RunFolderError(f"{_short(path)}: {error.strerror or error}") from None
+        if not exists and path.is_symlink():
+            raise RunFolderError(f"{path} is a link to {os.readlink(path)}, which does not exist")
+        if exists and not path.is_dir():
+            raise RunFolderError(f"{path} exists and is not a folder")
+        try:
+            if self.new:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.mkdir()
+                self._created = True
+            elif not path.exists():
+                path.mkdir(parents=True)
+                self._created = True
+            self._handle = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+        except FileExistsError:
+            raise RunFolderError(f"{path} was created by another run just now") from None
+        except OSError as error:
+            raise _write_error(path, error) from None
+        try:
+            fcntl.flock(self._handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as error:
+            self._release()
+            if error.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
+                raise RunFolderError(f"{path} is in use by another run") from None
+            raise _write_error(path, error) from None
+        try:
+            self._clean()
+            self._prove_writable()
+        except BaseException:
+            self.close(remove_if_empty=True)
+            raise
+        return self
+
+    def write(self, name: str, write: Callable[[Path], T]) -> T:
+        """Call ``write(path)`` for the file ``name`` of the folder and record it as written.
+
+        Raises:
+            RunWriteError: naming the file, if writing it fails with an ``OSError``.
+        """
+        path = self.path / name
+        try:
+            result = write(path)
+        except RunWriteError:
+            raise
+        except OSError as error:
+            raise _write_error(path, error) from None
+        self.written.append(name)
+        return result
+
+    def close(self, *, remove_if_empty: bool = False) -> None:
+        """Release the lock. With ``remove_if_empty``, a folder this run created and
+        wrote nothing into is removed too (an interrupted or failed run)."""
+        if remove_if_empty and self._created and not self.written:
+            with contextlib.suppress(OSError):
+                self.path.rmdir()
+        self._release()
+
+    def __enter__(self) -> RunFolder:
+        return self.open()
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close(remove_if_empty=kind is not None)
+
+    # ------------------------------------------------------------------ helpers
+    def _release(self) -> None:
+        if self._handle is not None:
+            os.close(self._handle)  # releases the flock too
+            self._handle = None
+
+    def _clean(self) -> None:
+        """Remove temporary files left behind; refuse a folder that is not this run's."""
+        for name in (*self.run_files, _PROBE_FILE):
+            for leftover in temporary_files(self.path, name):
+                leftover.unlink(missing_ok=True)
+        entries = sorted(entry.name for entry in self.path.iterdir())
+        foreign = [name for name in entries if name not in self.run_files]
+        if foreign:
+            listed = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
+            raise RunFolderError(
+                f"{self.path} is not empty ({listed}); a run folder holds one run's files: "
+                "choose a new folder"
+            )
+        if entries and not self.overwrite:
+            raise RunFolderError(
+                f"{self.path} holds an earlier run ({', '.join(entries)}); "
+                "choose a new folder, or pass --overwrite to replace it"
+            )
+        for name in entries:  # an earlier run's files, which this run replaces
+            try:
+                (self.path / name).unlink()
+            except OSError as error:
+                raise _write_error(self.path / name, error) from None
+
+    def _prove_writable(self) -> None:
+        probe = self.path / _PROBE_FILE
+        try:
+            atomic_write(probe, lambda file: file.write(b"warehouse_phys\n"))
+            probe.unlink()
+        except OSError as error:
+            raise _write_error(self.path, error) from None
+
+
+def _short(path: Path) -> str:
+    """``path`` for a one-line message: at most 80 characters."""
+    text = str(path)
+    return text if len(text) <= 80 else f"{text[:38]}...{text[-38:]} ({len(text)} characters)"
+
+
+def _write_error(path: Path, error: OSError) -> RunWriteError:
+    reason = error.strerror or str(error)
+    return RunWriteError(f"cannot write {path}: {reason}")

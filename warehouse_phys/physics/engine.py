@@ -1,0 +1,349 @@
+"""The physics engine: every call into pymunk and chipmunk.
+
+Spaces with the floor's drag and contact slop, static walls and shelves, a robot's
+body, disc, control body and pivot joint (built and renewed), and the fast paths
+into chipmunk's C functions (stepping, reading and placing bodies, clearing a
+space's time step, batched position reads). No other module of the package reaches
+into pymunk's internals; the single world and the batched world are both built
+from these functions.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import numpy as np
+import pymunk
+import pymunk.batch
+
+from warehouse_phys.physics.config import PhysicsConfig
+from warehouse_phys.rules.grid import Cell, WarehouseGrid
+
+#: Thickness of the static walls around the floor [cells]. A wall this thick
+#: cannot be crossed in one physics step (steps are shorter than the robot's radius).
+WALL_THICKNESS = 1.0
+
+
+#: Overlap pymunk allows between touching shapes, to keep contacts steady [cells].
+COLLISION_SLOP = 0.002
+
+
+#: Friction coefficient of robot-wall contacts (rubber bumper on steel) [1].
+WALL_FRICTION = 0.6
+
+
+class RobotBodies(NamedTuple):
+    """What one robot is made of in a space: its body and disc, and its controller."""
+
+    robot: pymunk.Body
+    shape: pymunk.Circle
+    #: The kinematic body on the point the robot is driven to.
+    control: pymunk.Body
+    #: The pivot joint that pulls the robot to ``control`` with capped force and speed.
+    joint: pymunk.PivotJoint
+
+
+def new_space(config: PhysicsConfig) -> pymunk.Space:
+    """An empty space with the floor's drag, the contact slop for ``config``'s cells and
+    one solver thread (the solver order, hence every bit, is then reproducible)."""
+    space = pymunk.Space()
+    space.threads = 1
+    space.damping = math.exp(-config.floor_damping)  # fraction of velocity kept after 1 s
+    # pymunk's default overlap allowance (0.1) suits pixel units; in metres it would
+    # let the robot sink 10 cm into a wall.
+    space.collision_slop = COLLISION_SLOP * config.cell_size
+    return space
+
+
+def add_floor(
+    space: pymunk.Space,
+    grid: WarehouseGrid,
+    cell_size: float,
+    origin: tuple[float, float] = (0.0, 0.0),
+) -> None:
+    """Add the walls around ``grid`` and its shelves to ``space``, with the floor's
+    top-left corner at ``origin`` ``(x, y)`` [m]."""
+    shapes = _wall_shapes(space.static_body, grid.rows, grid.cols, cell_size, origin)
+    shapes += _shelf_shapes(space.static_body, grid.shelves, cell_size, origin)
+    space.add(*shapes)
+
+
+def add_robot(
+    space: pymunk.Space, config: PhysicsConfig, position: tuple[float, float]
+) -> RobotBodies:
+    """Add a robot at rest on ``position`` ``(x, y)`` [m], and its controller aimed
+    there, to ``space``."""
+    robot = pymunk.Body()
+    shape = pymunk.Circle(robot, config.robot_radius)
+    shape.mass = config.robot_mass  # pymunk derives the moment of a uniform disc
+    shape.friction = WALL_FRICTION
+    shape.elasticity = 0.0
+    robot.position = position
+    space.add(robot, shape)
+
+    # The controller: a kinematic body on the aim point, joined to the robot by
+    # a pivot joint whose force and correction speed are capped.
+    control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+    control.position = robot.position
+    joint = _new_joint(control, robot, config)
+    space.add(control, joint)
+    return RobotBodies(robot, shape, control, joint)
+
+
+def renew_robot(
+    space: pymunk.Space, config: PhysicsConfig, bodies: RobotBodies, position: tuple[float, float]
+) -> RobotBodies:
+    """Make ``bodies`` a robot as :func:`add_robot` builds it, at rest on ``position`` [m].
+
+    Everything that carries state from one physics step to the next is reset
+    or replaced: the disc leaves the space and comes back, dropping its cached
+    contacts (and their accumulated impulses); the body gets a new body's
+    state (position, no velocity, angle, spin, force or torque); the control
+    body moves onto ``position``; a new joint, with no accumulated impulse,
+    replaces the old one. The bodies keep their place in the space's list of
+    bodies. The tests check that the robot then moves bit for bit as a newly
+    built one. Returns the robot with its new joint.
+    """
+    space.remove(bodies.joint, bodies.shape)
+    reset_body(bodies.robot, position)
+    set_position(bodies.control, position)
+    joint = _new_joint(bodies.control, bodies.robot, config)
+    space.add(bodies.shape, joint)
+    return bodies._replace(joint=joint)
+
+
+def _new_joint(
+    control: pymunk.Body, robot: pymunk.Body, config: PhysicsConfig
+) -> pymunk.PivotJoint:
+    """The controller's pivot joint: pulls ``robot`` to ``control``, force and speed capped."""
+    joint = pymunk.PivotJoint(control, robot, (0, 0), (0, 0))
+    joint.max_force = config.max_force
+    joint.max_bias = config.max_speed
+    joint.error_bias = math.exp(-config.gain)
+    joint.collide_bodies = False
+    return joint
+
+
+def space_stepping(space: pymunk.Space) -> tuple[Callable[[Any, float], None], Any]:
+    """How to advance ``space`` by ``dt``: ``step(target, dt)`` and its ``target``.
+
+    chipmunk's ``cpSpaceStep`` on the space's C handle when pymunk exposes it
+    (see ``_chipmunk``), else ``pymunk.Space.step`` on the space itself. The
+    caller holds the handle only while it holds the space.
+    """
+    handle = getattr(space, "_space", None)
+    if _CP_SPACE_STEP is None or handle is None:  # pragma: no cover - pymunk internals moved
+        return pymunk.Space.step, space
+    return _CP_SPACE_STEP, handle
+
+
+def _chipmunk() -> Any:
+    """chipmunk's C functions as pymunk binds them, or ``None`` if this pymunk hides them.
+
+    ``Space.step`` wraps ``cpSpaceStep`` in queues and checks that matter only
+    while bodies are being added or removed or collision callbacks run, and
+    pymunk's body properties pass through a generic ``__setattr__`` and build a
+    ``Vec2d`` on every read; a move needs none of that. Calling the C functions
+    directly makes a move about half as costly. Every call reads the C handle
+    from its pymunk object (``space._space``, ``body._body``) at that moment,
+    so no handle outlives its object. Tests check that both ways give
+    bit-identical paths.
+    """
+    try:
+        from pymunk._chipmunk import lib
+    except ImportError:  # pragma: no cover - depends on pymunk's internals
+        return None
+    needed = (
+        "cpSpaceStep",
+        "cpBodyGetPosition",
+        "cpBodySetPosition",
+        "cpBodySetVelocity",
+        "cpBodySetAngularVelocity",
+        "cpSpaceSetCurrentTimeStep",
+        "cpBodySetAngle",
+        "cpBodySetForce",
+        "cpBodySetTorque",
+    )
+    return lib if all(hasattr(lib, name) for name in needed) else None
+
+
+_LIB = _chipmunk()
+
+
+_CP_SPACE_STEP = None if _LIB is None else _LIB.cpSpaceStep
+
+
+#: Whether :meth:`PhysicsWorld.restart` can begin an episode exactly as a new world does.
+CAN_RESTART = _LIB is not None
+
+
+if _LIB is not None:
+
+    def get_position(body: pymunk.Body) -> tuple[float, float]:
+        """The body's position ``(x, y)`` [m]."""
+        position = _LIB.cpBodyGetPosition(body._body)
+        return position.x, position.y
+
+    def set_position(body: pymunk.Body, position: tuple[float, float]) -> None:
+        """Place the body at ``position`` [m] (as ``body.position = position``)."""
+        _LIB.cpBodySetPosition(body._body, position)
+
+    def clear_time_step(space: pymunk.Space) -> None:
+        """Forget the space's last time step: its next step then applies no cached
+        impulses, as the first step of a new space does."""
+        _LIB.cpSpaceSetCurrentTimeStep(space._space, 0.0)
+
+    def place_at_rest(body: pymunk.Body, position: tuple[float, float]) -> None:
+        """Place the body at ``position`` [m] with no linear or angular velocity."""
+        handle = body._body
+        _LIB.cpBodySetPosition(handle, position)
+        _LIB.cpBodySetVelocity(handle, (0.0, 0.0))
+        _LIB.cpBodySetAngularVelocity(handle, 0.0)
+
+    def reset_body(body: pymunk.Body, position: tuple[float, float]) -> None:
+        """Give the body a new body's state on ``position`` [m]: at rest, angle 0,
+        no force or torque."""
+        handle = body._body
+        _LIB.cpBodySetPosition(handle, position)
+        _LIB.cpBodySetVelocity(handle, (0.0, 0.0))
+        _LIB.cpBodySetAngle(handle, 0.0)
+        _LIB.cpBodySetAngularVelocity(handle, 0.0)
+        _LIB.cpBodySetForce(handle, (0.0, 0.0))
+        _LIB.cpBodySetTorque(handle, 0.0)
+
+else:  # pragma: no cover - the same through pymunk's properties
+
+    def get_position(body: pymunk.Body) -> tuple[float, float]:
+        position = body.position
+        return position.x, position.y
+
+    def set_position(body: pymunk.Body, position: tuple[float, float]) -> None:
+        body.position = position
+
+    def clear_time_step(space: pymunk.Space) -> None:
+        raise RuntimeError("this pymunk cannot clear a space's time step: build a new world")
+
+    def place_at_rest(body: pymunk.Body, position: tuple[float, float]) -> None:
+        body.position = position
+        body.velocity = (0.0, 0.0)
+        body.angular_velocity = 0.0
+
+    def reset_body(body: pymunk.Body, position: tuple[float, float]) -> None:
+        place_at_rest(body, position)
+        body.angle = 0.0
+        body.force = (0.0, 0.0)
+        body.torque = 0.0
+
+
+#: The body field of a position in pymunk's batched I/O.
+POSITION_FIELD = pymunk.batch.BodyFields.POSITION
+
+
+class PositionReader:
+    """Every body's position in one call into chipmunk, into an array of our own.
+
+    :func:`pymunk.batch.get_space_bodies` builds its call's arguments anew and
+    fills a buffer that has to be copied out, every time; a recorded move reads
+    positions after every physics step, so this reader keeps both: pymunk's own
+    iterator function with a persistent argument block, filling our array. The
+    array has room for three more numbers than the bodies need, because
+    pymunk's buffer grows (and would move our memory) when fewer than three
+    places are left; no body is ever added to a world's space after it is
+    built. Without the pymunk internals this needs, it reads through
+    :func:`pymunk.batch.get_space_bodies`.
+    """
+
+    def __init__(self, n_bodies: int) -> None:
+        self.n_bodies = n_bodies
+        self._floats = np.zeros(2 * n_bodies + 4)
+        self._buffer = pymunk.batch.Buffer()
+        self._buffer.set_float_buf(self._floats)
+        self._positions = self._floats[: 2 * n_bodies].reshape(n_bodies, 2)
+        try:
+            from pymunk._chipmunk import ffi, lib
+
+            data = ffi.new("pmBatchedData *")
+            data.fields = POSITION_FIELD.value
+            data.floatArray = self._buffer._float_arr
+            data.intArray = self._buffer._int_arr
+            iterate = ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
+            self._call: tuple[Any, ...] | None = (lib.cpSpaceEachBody, iterate, data)
+        except (ImportError, AttributeError):  # pragma: no cover - pymunk internals moved
+            self._call = None
+
+    def read(self, space: pymunk.Space) -> np.ndarray:
+        """``(bodies, 2)`` positions ``(x, y)`` [m] in the space's order: a view, valid
+        until the next read."""
+        if self._call is None:  # pragma: no cover - pymunk internals moved
+            buffer = pymunk.batch.Buffer()
+            pymunk.batch.get_space_bodies(space, POSITION_FIELD, buffer)
+            return np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
+        each_body, iterate, data = self._call
+        floats = self._buffer._float_arr
+        floats.num = 0
+        each_body(space._space, iterate, data)
+        if floats.num != 2 * self.n_bodies:  # pragma: no cover - a body was added
+            raise RuntimeError(f"the space holds {floats.num // 2} bodies, not {self.n_bodies}")
+        return self._positions
+
+
+def _box(
+    static_body: pymunk.Body, left: float, top: float, right: float, bottom: float
+) -> pymunk.Poly:
+    """A static box with the walls' surface, given by its edges [m]."""
+    box = pymunk.Poly(static_body, [(left, top), (right, top), (right, bottom), (left, bottom)])
+    box.friction = WALL_FRICTION
+    box.elasticity = 0.0
+    return box
+
+
+def _shelf_shapes(
+    static_body: pymunk.Body,
+    shelves: frozenset[Cell],
+    cell_size: float,
+    origin: tuple[float, float],
+) -> list[pymunk.Poly]:
+    """One static box per horizontal run of shelf cells, each filling its cells exactly.
+
+    A robot moving towards a shelf meets its edge half a cell from its own
+    centre, exactly as it meets a wall. Merging runs keeps the number of
+    shapes, hence the cost of building a world at every reset, small.
+    """
+    runs: list[list[int]] = []  # [row, first column, last column]
+    for row, col in sorted(shelves):
+        if runs and runs[-1][0] == row and runs[-1][2] == col - 1:
+            runs[-1][2] = col
+        else:
+            runs.append([row, col, col])
+    size, (x0, y0) = cell_size, origin
+    return [
+        _box(
+            static_body,
+            x0 + first * size,
+            y0 + row * size,
+            x0 + (last + 1) * size,
+            y0 + (row + 1) * size,
+        )
+        for row, first, last in runs
+    ]
+
+
+def _wall_shapes(
+    static_body: pymunk.Body, rows: int, cols: int, cell_size: float, origin: tuple[float, float]
+) -> list[pymunk.Poly]:
+    """Four thick boxes just outside the ``rows`` x ``cols`` floor, overlapping at the corners."""
+    thick = WALL_THICKNESS * cell_size
+    width, height = cols * cell_size, rows * cell_size
+    boxes = (
+        (-thick, -thick, width + thick, 0.0),  # top, above row 0
+        (-thick, height, width + thick, height + thick),  # bottom
+        (-thick, 0.0, 0.0, height),  # left
+        (width, 0.0, width + thick, height),  # right
+    )
+    x0, y0 = origin
+    return [
+        _box(static_body, x0 + left, y0 + top, x0 + right, y0 + bottom)
+        for left, top, right, bottom in boxes
+    ]

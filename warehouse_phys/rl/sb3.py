@@ -1,0 +1,367 @@
+"""Stable-Baselines3 on the package's native vector environments (the ``sb3`` extra).
+
+Stable-Baselines3 has its own vector-environment API and cannot take what
+``gym.make_vec`` returns. :func:`vec_env` makes the native vector environment
+(:class:`~warehouse_phys.envs.vector.WarehouseGridVectorEnv`, or the physics-backed
+:class:`~warehouse_phys.envs.vector.WarehousePhysicsVectorEnv`) and wraps it in
+:class:`SB3VecEnv`, a real ``stable_baselines3.common.vec_env.VecEnv``: every
+floor is still stepped with a few array operations, no Python loop over
+environments. Install the extra first::
+
+    pip install "warehouse_phys[sb3]"
+
+PPO on the grid twin, one-hot observations for the MLP, a small step penalty::
+
+    from stable_baselines3 import PPO
+    from warehouse_phys.rl.sb3 import vec_env
+
+    env = vec_env("warehouse-robot-v0", num_envs=8, seed=0,
+                  observation="onehot", step_penalty=0.01)
+    model = PPO("MlpPolicy", env, seed=0).learn(50_000)
+
+DQN with its defaults learns the default floor, but with the sparse reward
+alone (nothing is lost by delaying, nothing by bumping into a wall) its policy
+drifts away again as training goes on: with seed 0 it reaches 11 of the 12
+targets by a shortest path at 50k steps and none at 75k and 100k. A step
+penalty of 0.1 keeps it on the shortest paths (12 of 12 at 50k, 75k and 100k;
+0.01 is too small: 4 of 12 at 100k)::
+
+    from stable_baselines3 import DQN
+
+    env = vec_env("warehouse-robot-v0", num_envs=1, seed=0, step_penalty=0.1)
+    model = DQN("MlpPolicy", env, seed=0).learn(100_000)
+
+Any keyword of the single environment goes through (``grid_rows``, ``layout``,
+``observation``, ``step_penalty``, ``bump_penalty``, the physical keywords of
+``warehouse-robot-phys-v0``, ``max_episode_steps``), and so does any preset id.
+
+What the adapter does with the native environment's conventions:
+
+- Autoreset: the native environments restart an ended episode on the *next*
+  step; Stable-Baselines3 expects it on the same step. The adapter restarts the
+  ended floors at once (``reset(options={"reset_mask": done})``), returns their
+  new episode's first observation and puts the last one in
+  ``infos[i]["terminal_observation"]``, with ``infos[i]["TimeLimit.truncated"]``
+  true for a floor truncated by the time limit without reaching its package.
+  Each floor's episodes follow the single environment's rules exactly.
+- Seeding: the native environment has one generator for every floor (as
+  Gymnasium's ``CartPoleVectorEnv``). ``seed(s)`` (and ``vec_env(seed=s)``) seeds
+  it with ``s`` at the next ``reset()``; the same seed gives the same episodes.
+- Attributes and methods (``get_attr``, ``set_attr``, ``env_method``) are the
+  native vector environment's, shared by every floor: ``get_attr`` gives its
+  value once per index asked for; ``set_attr`` and ``env_method`` act on it once
+  and refuse indices that leave floors out. ``env_is_wrapped`` is false: no
+  floor is a wrapped Gymnasium environment.
+- ``vec_env(..., monitor=True)`` (the default, as SB3's ``make_vec_env``) wraps
+  the adapter in ``VecMonitor``, so that training logs episode returns and
+  lengths and ``evaluate_policy`` counts whole episodes.
+
+The fleet with SuperSuit: SuperSuit's ``pettingzoo_env_to_vec_env_v1`` turns a
+PettingZoo ``ParallelEnv`` whose robots share one observation and action space
+into a vector environment with one entry per robot, and ``concat_vec_envs_v1``
+stacks copies of it into a Stable-Baselines3 ``VecEnv``. It needs a ``Box``
+observation (``observation="onehot"`` or ``"neighbours_onehot"``) and robots that
+stay for the whole episode (``on_delivery="new_package"`` or ``"park"``)::
+
+    import supersuit as ss
+    from stable_baselines3 import PPO
+    from warehouse_phys.envs import fleet
+
+    robots = fleet.parallel_env(num_robots=4, observation="onehot",
+                                on_delivery="new_package", max_cycles=200)
+    envs = ss.pettingzoo_env_to_vec_env_v1(robots)
+    envs = ss.concat_vec_envs_v1(envs, 2, num_cpus=0, base_class="stable_baselines3")
+    model = PPO("MlpPolicy", envs, seed=0).learn(20_000)  # one shared policy
+
+SuperSuit's ``SB3VecEnvWrapper`` cannot be seeded (its ``seed`` calls a method
+``ConcatVecEnv`` lacks): leave ``seed`` out of the algorithm, seed the fleets
+with ``envs.venv.reset(seed=0)`` and the networks with
+``stable_baselines3.common.utils.set_random_seed(0)``.
+
+With ``on_delivery="leave"`` robots leave the floor, which SuperSuit's
+vectoriser refuses; the recipe is SuperSuit's ``black_death_v3``, which keeps a
+robot that left in the batch with zero observations and rewards until the
+episode ends. SuperSuit 3.11's ``black_death_v3`` never ends an episode,
+though (it waits for every robot to be terminated *and* truncated on one step;
+SuperSuit's pull request #265 makes it *or*), so the fleet would be stepped
+after its last robot left. :func:`black_death` is the same wrapper with that
+fix; use it until a SuperSuit release has it::
+
+    from warehouse_phys.rl.sb3 import black_death
+
+    robots = black_death(
+        fleet.parallel_env(num_robots=4, observation="onehot", on_delivery="leave")
+    )
+    envs = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(robots), 2,
+                                 num_cpus=0, base_class="stable_baselines3")
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any
+
+import gymnasium as gym
+import numpy as np
+
+from warehouse_phys.envs.vector import WarehouseGridVectorEnv
+
+if TYPE_CHECKING:  # pragma: no cover - the sb3 extra is optional
+    from stable_baselines3.common.vec_env import VecEnv
+
+INSTALL_HINT = 'pip install "warehouse_phys[sb3]"'
+
+__all__ = ["INSTALL_HINT", "SB3VecEnv", "black_death", "vec_env"]  # noqa: F822 - see __getattr__
+
+
+def __getattr__(name: str) -> Any:
+    """``SB3VecEnv``, the adapter's class, built on SB3's ``VecEnv`` when first asked for."""
+    if name == "SB3VecEnv":
+        return _adapter_class(_import_sb3().VecEnv)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def black_death(parallel_env: Any) -> Any:
+    """SuperSuit's ``black_death_v3`` around ``parallel_env``, ending each episode once
+    every robot still on the floor has terminated or been truncated.
+
+    SuperSuit 3.11's wrapper ends an episode only when every robot is terminated
+    *and* truncated on the same step, which never happens here, so the fleet would
+    be stepped after its last robot left. This is the wrapper with *or* (the fix of
+    SuperSuit's pull request #265). Needs a ``Box`` observation (``"onehot"``).
+
+    Raises:
+        ImportError: if SuperSuit is not installed (the ``sb3`` extra).
+    """
+    try:
+        from supersuit.multiagent_wrappers.black_death import black_death_par
+    except ImportError as error:
+        raise ImportError(
+            f"warehouse_phys.rl.sb3.black_death needs SuperSuit: `{INSTALL_HINT}`"
+        ) from error
+
+    class _BlackDeath(black_death_par):
+        def step(self, actions: dict) -> tuple[dict, dict, dict, dict, dict]:
+            active = {agent: actions[agent] for agent in self.env.agents}
+            obs, rewards, terms, truncs, infos = self.env.step(active)
+            done = all(terms[agent] or truncs[agent] for agent in terms)
+            zeros = {
+                agent: np.zeros_like(self.observation_space(agent).low)
+                for agent in self.agents
+                if agent not in obs
+            }
+            gone = [agent for agent in self.agents if agent not in obs]
+            all_obs = {**zeros, **obs}
+            all_rewards = {**dict.fromkeys(gone, 0.0), **rewards}
+            all_infos = {**{agent: {} for agent in gone}, **infos}
+            dones = dict.fromkeys(self.agents, done)
+            if done:
+                self.agents.clear()
+            return all_obs, all_rewards, dones, dict(dones), all_infos
+
+    return _BlackDeath(parallel_env)
+
+
+def _import_sb3() -> Any:
+    """``stable_baselines3.common.vec_env``, or an ``ImportError`` that says how to get it."""
+    try:
+        from stable_baselines3.common import vec_env
+    except ImportError as error:
+        raise ImportError(
+            "warehouse_phys.rl.sb3 needs Stable-Baselines3, which is not installed: "
+            f"install the sb3 extra with `{INSTALL_HINT}`"
+        ) from error
+    return vec_env
+
+
+def vec_env(
+    env_id: str | WarehouseGridVectorEnv = "warehouse-robot-v0",
+    num_envs: int = 8,
+    *,
+    seed: int | None = None,
+    monitor: bool = True,
+    **kwargs: Any,
+) -> VecEnv:
+    """A Stable-Baselines3 ``VecEnv`` of ``num_envs`` floors, stepped as arrays.
+
+    Args:
+        env_id: A grid or physics id of the package (``"warehouse-robot-v0"``,
+            ``"warehouse-robot-phys-v0"``, a preset's id, with or without the
+            ``"warehouse_phys:"`` prefix), made with ``gym.make_vec(env_id,
+            num_envs, vectorization_mode="vector_entry_point", **kwargs)``; or a
+            native vector environment already made (then ``num_envs`` and
+            ``kwargs`` must be left out).
+        num_envs: How many floors.
+        seed: Seeds the floors' generator at the first ``reset()``.
+        monitor: Wrap the adapter in SB3's ``VecMonitor`` (episode statistics).
+        **kwargs: The environment's keywords (``observation="onehot"``,
+            ``step_penalty=0.01``, ``grid_rows=6``, ...).
+
+    Raises:
+        ImportError: if Stable-Baselines3 is not installed (the ``sb3`` extra).
+        TypeError, ValueError: for an environment or arguments the package refuses.
+    """
+    sb3_vec_env = _import_sb3()
+    if isinstance(env_id, WarehouseGridVectorEnv):
+        if kwargs:
+            raise TypeError(
+                f"vec_env got a vector environment already made and keywords {sorted(kwargs)}; "
+                "pass the keywords to gym.make_vec instead"
+            )
+        if num_envs not in (8, env_id.num_envs):  # 8: the default, left out
+            raise ValueError(
+                f"num_envs={num_envs} contradicts the vector environment's {env_id.num_envs}"
+            )
+        native = env_id
+    elif isinstance(env_id, str):
+        native = gym.make_vec(
+            env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs
+        )
+        if not isinstance(native, WarehouseGridVectorEnv):
+            native.close()
+            raise ValueError(
+                f"{env_id!r} has no native vector environment of warehouse_phys "
+                f"(gym.make_vec gave {type(native).__name__})"
+            )
+    else:
+        raise TypeError(
+            "env_id must be an environment id or a warehouse_phys vector environment, "
+            f"got {env_id!r} ({type(env_id).__name__})"
+        )
+    adapter = _adapter_class(sb3_vec_env.VecEnv)(native)
+    if seed is not None:
+        adapter.seed(seed)
+    return sb3_vec_env.VecMonitor(adapter) if monitor else adapter
+
+
+_ADAPTER: type | None = None
+
+
+def _adapter_class(base: type) -> type:
+    """:class:`SB3VecEnv`'s class, built on SB3's ``VecEnv`` once it is imported."""
+    global _ADAPTER
+    if _ADAPTER is None:
+        _ADAPTER = type("SB3VecEnv", (_SB3VecEnvMixin, base), {"__module__": __name__})
+    return _ADAPTER
+
+
+class _SB3VecEnvMixin:
+    """The adapter's methods; the class is ``SB3VecEnv``, a subclass of SB3's ``VecEnv``.
+
+    Built by :func:`vec_env`: ``SB3VecEnv(native)`` takes a native vector environment
+    of the package and speaks Stable-Baselines3's ``VecEnv`` API over it (see the
+    module's docstring for the conventions).
+    """
+
+    def __init__(self, native: WarehouseGridVectorEnv) -> None:
+        #: The native vector environment every floor lives in.
+        self.native = native
+        self._actions: np.ndarray | None = None
+        super().__init__(
+            native.num_envs, native.single_observation_space, native.single_action_space
+        )
+        self.metadata = {**self.metadata, "autoreset_mode": "same-step"}
+
+    # ------------------------------------------------------------------ stepping
+    def reset(self) -> np.ndarray:
+        """Start new episodes on every floor; seeded by the last :meth:`seed`, once."""
+        if any(self._options):
+            raise ValueError(
+                "warehouse_phys vector environments take no per-floor reset options "
+                f"(set_options gave {self._options[0]!r}); make the environment with the "
+                "keywords instead"
+            )
+        seed = self._seeds[0]
+        obs, infos = self.native.reset(seed=seed)
+        self.reset_infos = _split_infos(infos, self.num_envs)
+        self._reset_seeds()
+        self._reset_options()
+        self._actions = None
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        """Keep ``actions`` (one per floor) for :meth:`step_wait`."""
+        self._actions = actions
+
+    def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
+        """Step every floor; restart the ended ones at once (SB3's same-step autoreset)."""
+        if self._actions is None:
+            raise RuntimeError("call step_async(actions) before step_wait()")
+        actions, self._actions = self._actions, None
+        obs, rewards, terminated, truncated, infos = self.native.step(actions)
+        dones = terminated | truncated
+        step_infos = _split_infos(infos, self.num_envs)
+        ended = np.flatnonzero(dones)
+        if ended.size:
+            new_obs, reset_infos = self.native.reset(options={"reset_mask": dones})
+            first_infos = _split_infos(reset_infos, self.num_envs)
+            for i in ended.tolist():
+                step_infos[i]["terminal_observation"] = obs[i]
+                step_infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+                self.reset_infos[i] = first_infos[i]
+            obs = obs.copy()
+            obs[ended] = new_obs[ended]
+        return obs, rewards.astype(np.float32), dones, step_infos
+
+    def close(self) -> None:
+        """Close the native vector environment."""
+        self.native.close()
+
+    # ------------------------------------------------------------- the rest of the API
+    def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
+        """The native environment's ``attr_name``, once for each index asked for."""
+        value = getattr(self.native, attr_name)
+        return [value] * len(self._indices(indices))
+
+    def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+        """Set ``attr_name`` of the native environment, which every floor shares."""
+        self._all_floors(indices, "set_attr")
+        setattr(self.native, attr_name, value)
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any
+    ) -> list[Any]:
+        """Call the native environment's method once; its result once for each floor."""
+        self._all_floors(indices, "env_method")
+        result = getattr(self.native, method_name)(*method_args, **method_kwargs)
+        return [result] * self.num_envs
+
+    def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
+        """False for every floor: the floors are no wrapped Gymnasium environments."""
+        return [False] * len(self._indices(indices))
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        """One ``(H, W, 3)`` frame per floor, in ``render_mode="rgb_array"``."""
+        if self.native.render_mode != "rgb_array":
+            return [None] * self.num_envs
+        return list(self.native.render())
+
+    def _indices(self, indices: Any) -> list[int]:
+        if indices is None:
+            return list(range(self.num_envs))
+        if isinstance(indices, (int, np.integer)):
+            indices = [indices]
+        chosen = [int(i) for i in indices] if isinstance(indices, Iterable) else None
+        if chosen is None or not all(0 <= i < self.num_envs for i in chosen):
+            raise IndexError(f"indices must name floors 0..{self.num_envs - 1}, got {indices!r}")
+        return chosen
+
+    def _all_floors(self, indices: Any, what: str) -> None:
+        if sorted(set(self._indices(indices))) != list(range(self.num_envs)):
+            raise ValueError(
+                f"{what} acts on the native vector environment, which every floor shares: "
+                f"indices must name all {self.num_envs} floors (or be None), got {indices!r}"
+            )
+
+
+def _split_infos(infos: dict[str, Any], num_envs: int) -> list[dict[str, Any]]:
+    """Gymnasium's vector infos (arrays with ``_key`` masks) as one dict per floor."""
+    split: list[dict[str, Any]] = [{} for _ in range(num_envs)]
+    for key, values in infos.items():
+        if key.startswith("_"):
+            continue
+        mask = infos.get(f"_{key}")
+        for i, value in enumerate(np.asarray(values).tolist()):
+            if mask is None or mask[i]:
+                split[i][key] = value
+    return split
