@@ -4,6 +4,9 @@ What ``python -m warehouse_phys.train`` and ``python -m warehouse_phys.sweep``
 share: the floor to train on (:class:`Floor`), the files a run writes and
 :func:`train_run`, which trains, evaluates and writes them into a
 :class:`~warehouse_phys.files.runfolder.RunFolder`.
+
+One training run, single or fleet, from floor to folder: its length is the run folder's
+files (summary, table, figures, GIF), which train and sweep share.
 """
 
 from __future__ import annotations

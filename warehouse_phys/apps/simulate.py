@@ -22,6 +22,8 @@ policy that does worse. It writes a run folder (default
 (with the comparison), ``throughput.png`` (deliveries over time), ``congestion.png``
 (waits on each cell) and ``fleet.gif`` (``--frames`` frames evenly spread, sized to
 fit a 1000-pixel frame). Bad arguments end with exit status 2 and a one-line message.
+
+One command line: its length is its options, its measures and its run folder.
 """
 
 from __future__ import annotations

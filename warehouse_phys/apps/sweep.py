@@ -25,6 +25,9 @@ Nothing waits for resources that cannot come: ``--cpus-per-trial`` beyond the
 machine's (or the cluster's) CPUs is refused, and an ``--address`` where no Ray
 cluster answers fails within seconds, each in one line. On SIGINT or SIGTERM
 the Ray processes the sweep started are shut down before it exits.
+
+One command line over Ray Tune: its length is Ray's set-up and shut-down, the trials
+and the results tables.
 """
 
 from __future__ import annotations
@@ -58,7 +61,7 @@ from warehouse_phys.apps.cli import (
 from warehouse_phys.apps.runs import ENVIRONMENTS, RUN_FILES, SUMMARY_FILE, TABLE_FILE, Floor
 from warehouse_phys.files.atomic import TEMPORARY_PREFIX, TEMPORARY_SUFFIX, atomic_write_text
 from warehouse_phys.rl.qlearning import QLearningConfig, check_training_memory
-from warehouse_phys.rules.grid import MAX_SIDE, MIN_SIDE
+from warehouse_phys.rules.grid import DEFAULT_COLS, DEFAULT_ROWS, MAX_SIDE, MIN_SIDE
 from warehouse_phys.rules.layouts import PRESETS
 
 PROG = "python -m warehouse_phys.sweep"
@@ -192,8 +195,14 @@ def build_parser() -> argparse.ArgumentParser:
         f"({', '.join(PRESETS)}) or layout files (default: {DEFAULT_FLOOR})",
     )  # fmt: skip
     side = bounded_int(MIN_SIDE, f"{MIN_SIDE} to {MAX_SIDE}", MAX_SIDE)
-    parser.add_argument("--rows", type=side, default=4, help="rows of the default floor (4)")
-    parser.add_argument("--cols", type=side, default=5, help="columns of the default floor (5)")
+    parser.add_argument(
+        "--rows", type=side, default=DEFAULT_ROWS,
+        help=f"rows of the default floor ({DEFAULT_ROWS})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--cols", type=side, default=DEFAULT_COLS,
+        help=f"columns of the default floor ({DEFAULT_COLS})",
+    )  # fmt: skip
     parser.add_argument(
         "--seeds", type=_seeds, default=[0, 1, 2, 3], metavar="N_OR_A-B",
         help="seeds: a count N (0..N-1) or an inclusive range A-B (default 4)",

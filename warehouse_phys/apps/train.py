@@ -32,6 +32,8 @@ the shortest-path policy or random.
 Bad arguments and unusable tables end with exit status 2 and a one-line
 message, before anything is written. The algorithm lives in
 :mod:`warehouse_phys.rl.qlearning`; this module is only the command line.
+
+One command line: its length is its options and their one-line errors.
 """
 
 from __future__ import annotations

@@ -8,6 +8,9 @@ is half-way between the centres of cells (0, 1) and (1, 1).
 
 pygame is imported only when a picture is first drawn: an environment made
 with ``render_mode=None`` (or ``"ansi"``) never loads it.
+
+Its length is the one place the package draws: the pygame renderer, the array-drawn
+maps of large fleets and the text frames.
 """
 
 from __future__ import annotations

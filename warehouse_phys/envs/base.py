@@ -1,6 +1,9 @@
 """What every single warehouse environment shares (:class:`WarehouseEnvBase`), and the
 checks and encodings the vector and fleet environments use too: actions, penalties,
 choices, observation spaces and one-hot rows, status lines, recorded paths.
+
+Its length is the checks every environment shares (actions, options, penalties,
+render modes), each refusing a bad input with an error that names it.
 """
 
 from __future__ import annotations

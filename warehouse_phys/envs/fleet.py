@@ -3,6 +3,9 @@
 ``warehouse_phys.envs.fleet.parallel_env(**kwargs)`` returns a :class:`WarehouseFleetEnv`
 (a PettingZoo ``ParallelEnv``); ``warehouse_phys.envs.fleet.env(**kwargs)`` the same as
 an AEC environment (PettingZoo's ``parallel_to_aec``, refusing a bad action at once).
+
+Its length is one PettingZoo environment whose class docstring, its specification,
+is a fifth of it; the rules it applies live in :mod:`warehouse_phys.rules`.
 """
 
 from __future__ import annotations

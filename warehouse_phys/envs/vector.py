@@ -6,6 +6,9 @@ ids), which steps every floor with a handful of array operations instead of a
 Python loop over single environments. ``gym.make_vec("warehouse-robot-phys-v0",
 num_envs=N)`` returns :class:`WarehousePhysicsVectorEnv`, the same semantics with
 every robot a body in one pymunk space.
+
+Its length is the two vector twins side by side (the physics one a subclass of the
+grid one), each with its Gymnasium specification as its class docstring.
 """
 
 from __future__ import annotations

@@ -20,6 +20,9 @@ bit for bit. On another floor every coordinate carries the floor's offset, so
 positions are rounded to the offset's precision (about ``1e-16`` times the
 offset) and a robot there follows the single world to within about ``1e-12``
 of a cell, not bit for bit; the tests bound it by ``1e-9``.
+
+Its length is one class, the batched world, whose moves must match the single
+world's step for step (docstrings give the geometry that proof rests on).
 """
 
 from __future__ import annotations

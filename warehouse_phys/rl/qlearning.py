@@ -22,6 +22,9 @@ Tables are saved as ``.npz`` archives holding only numbers and a JSON string,
 written atomically, and loaded without pickle and with strict checks, so loading a
 file can never run code: that file format is :mod:`warehouse_phys.rl.qtable_file`, whose
 names are importable from here too.
+
+Its length is one algorithm and its evaluation, shared by the single and the fleet
+learner.
 """
 
 from __future__ import annotations

@@ -13,6 +13,9 @@ for a fleet over neighbour masks.
 A table and a training run's records must fit :data:`TRAINING_MEMORY_BUDGET`; the
 learners check that before they allocate anything, and :func:`load_q_table` before
 it reads a table. Everything here is re-exported by :mod:`warehouse_phys.rl.qlearning`.
+
+Its length is the file format's checks: every field of a table file that may be
+crafted or damaged is checked before a byte of the table is trusted.
 """
 
 from __future__ import annotations

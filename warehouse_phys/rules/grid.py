@@ -4,6 +4,9 @@ Every environment of the package follows these rules, so the grid twin and the
 physics-backed environment cannot drift apart. This module imports neither
 gymnasium, pymunk nor pygame: only numpy (for the random generator type and the
 floor's regions) and, for a layout that marks no start, scipy's region labelling.
+
+Its length is the world model itself, the one source of truth for every twin: split
+it and the rules would have two homes.
 """
 
 from __future__ import annotations

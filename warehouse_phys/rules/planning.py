@@ -17,6 +17,9 @@ the physics world's proof of the traffic rule covers its moves too.
 
 Like :mod:`warehouse_phys.rules.grid`, this module imports neither gymnasium, pymunk,
 pygame nor PettingZoo; it reads the fleet's public arrays, never its internals.
+
+Its length is one algorithm, PIBT, with its swap and its straight-line variant for
+fleets without corner follows; its names are the paper's.
 """
 
 from __future__ import annotations

@@ -3,6 +3,9 @@
 Every function returns a :class:`matplotlib.figure.Figure` with its own Agg
 canvas: no pyplot, no window, nothing global. Save one with
 :func:`save_figure`; in a notebook it shows inline after ``%matplotlib inline``.
+
+A module of figures, one function each: long because there are many figures, not
+because any is.
 """
 
 from __future__ import annotations
