@@ -234,12 +234,37 @@ def granted_moves(
     """:func:`resolve_moves` on cell indices (``row * cols + col``), without checking its
     arguments: for callers that keep them valid (the fleet; ``parked=None`` when no
     robot can be parked). Returns every decision of the rule (:class:`Grants`)."""
-    n = len(here)
-    table, scratch = _floor_tables(grid)
+    table, _ = _floor_tables(grid)
     act = actions if parked is None else np.where(parked, WAIT, actions)
-    wanted = table[here, act]
+    return grant_wanted(grid, here, table[here, act], act, corner_follows=corner_follows)
+
+
+def grant_wanted(
+    grid: WarehouseGrid,
+    here: np.ndarray,
+    wanted: np.ndarray,
+    directions: np.ndarray,
+    *,
+    corner_follows: bool = True,
+) -> Grants:
+    """The rule (rules 2 to 4 of the module) for robots that each want one cell: the
+    traffic rule of every move model (the turning robot's too,
+    :mod:`warehouse_phys.rules.headings`), without checking its arguments.
+
+    Args:
+        grid: The floor.
+        here: ``(N,)`` each robot's cell index.
+        wanted: ``(N,)`` the cell each robot heads for: a neighbour, or its own cell
+            when it stays or the floor refuses its move (rule 1, already applied).
+        directions: ``(N,)`` the direction of each robot's move as a grid action
+            (0..3), :data:`WAIT` for a robot that does not try to move; a robot with a
+            direction that stays put bumped into a wall or shelf.
+        corner_follows: Whether corner follows are granted.
+    """
+    n = len(here)
+    _, scratch = _floor_tables(grid)
     free = wanted != here  # the moves the floor allows
-    bumped = (act != WAIT) > free  # rule 1: the floor refuses (a move, not allowed)
+    bumped = (directions != WAIT) > free  # rule 1: the floor refuses (a move, not allowed)
     moving = free.copy()
     robots = _ROBOT_NUMBERS.get(n)
     if robots is None:  # 0..n-1, read-only, kept for fleets of this size
@@ -267,7 +292,7 @@ def granted_moves(
         ahead = leader[follows]
         may_go[follows] &= moving[ahead] & (wanted[ahead] != here[follows])
         if not corner_follows:
-            may_go[follows] &= act[ahead] == act[follows]
+            may_go[follows] &= directions[ahead] == directions[follows]
         for _ in range(max(1, n).bit_length()):
             further = leader[leader]
             may_go &= may_go[leader]

@@ -1,0 +1,226 @@
+"""League of Robot Runners instances: the published files, a round trip, and every fault."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, reject, settings
+from hypothesis import strategies as st
+
+from warehouse_phys.rules.grid import WarehouseGrid
+from warehouse_phys.rules.instances import (
+    PUBLISHED_FIGURES,
+    DelayConfig,
+    LorrInstance,
+    read_instance,
+    write_instance,
+)
+
+#: The competition's instances beside the repository, absent on a fresh clone.
+LORR = Path(__file__).resolve().parents[3] / "shared" / "lorr"
+
+
+def needs_lorr() -> None:
+    if not LORR.is_dir():
+        pytest.skip(f"LoRR instances not found at {LORR} (the shared folder beside the checkout)")
+
+
+@pytest.mark.parametrize(
+    ("relative", "robots", "tasks", "assignment", "year", "stops"),
+    [
+        ("2023-main-warehouse/MR23-I-10.json", 10_000, 500_000, "roundrobin", 2023, 1),
+        ("2023-examples-warehouse/EI23-warehouse_large_200.json", 200, 500_000, "roundrobin",
+         2023, 1),
+        ("2024-main-warehouse/WAREHOUSE.json", 10_000, 100_000, "scheduler", 2024, 2),
+        ("2026-examples-random/random-example_400.json", 400, 3200, "scheduler", 2026, 4),
+        ("2026-examples-maze/maze-example_40.json", 40, 160, "scheduler", 2026, 2),
+    ],
+)  # fmt: skip
+def test_the_published_instances_read_as_the_competition_reads_them(
+    relative, robots, tasks, assignment, year, stops
+):
+    needs_lorr()
+    instance = read_instance(LORR / relative)
+    assert (instance.team_size, instance.num_tasks) == (robots, tasks)
+    assert (instance.assignment, instance.year) == (assignment, year)
+    assert instance.stops_per_task.max() == stops
+    assert len(np.unique(instance.starts)) == robots
+    grid = instance.grid
+    first = (LORR / relative).parent / json.loads((LORR / relative).read_text())["taskFile"]
+    lines = [line for line in first.read_text().splitlines() if not line.startswith("#")]
+    assert instance.task(0).tolist() == [int(v) for v in lines[1].split(",")]
+    assert instance.task(tasks - 1).tolist() == [int(v) for v in lines[tasks].split(",")]
+    for location in (*instance.starts[:50], *instance.task_stops[:50]):
+        assert divmod(int(location), grid.cols) not in grid.shelves
+
+
+def test_the_2024_instance_opens_one_and_a_half_tasks_a_robot_and_2026_keeps_its_delays():
+    needs_lorr()
+    warehouse = read_instance(LORR / "2024-main-warehouse/WAREHOUSE.json")
+    assert warehouse.open_tasks == 15_000
+    random = read_instance(LORR / "2026-examples-random/random-example_400.json")
+    assert random.agent_counter == 3
+    assert random.agent_size == 1.0
+    assert random.delay == DelayConfig(0, 1, 4, "bernoulli", 0.01, "uniform", 0.5, 0.22)
+    assert PUBLISHED_FIGURES["MR23-I-10"].best == 38.9
+    assert PUBLISHED_FIGURES["WAREHOUSE"].default == 12.78
+
+
+FLOOR = ["....#", ".#...", "....."]
+
+
+def write_files(folder, *, data=None, agents="3\n0\n2\n14\n", tasks="2\n3\n13\n", grid=FLOOR):
+    """An instance's four files in ``folder``; returns the JSON's path."""
+    (folder / "maps").mkdir(exist_ok=True)
+    (folder / "maps/f.map").write_text(
+        f"type octile\nheight {len(grid)}\nwidth {len(grid[0])}\nmap\n"
+        + "".join(row.replace("#", "@") + "\n" for row in grid)
+    )
+    (folder / "a.agents").write_text(agents)
+    (folder / "t.tasks").write_text(tasks)
+    base = {"mapFile": "maps/f.map", "agentFile": "a.agents", "taskFile": "t.tasks",
+            "teamSize": 3, "numTasksReveal": 1, "taskAssignmentStrategy": "roundrobin"}  # fmt: skip
+    (folder / "x.json").write_text(json.dumps(base if data is None else {**base, **data}))
+    return folder / "x.json"
+
+
+def test_a_small_instance_reads_with_comments_and_blank_lines_at_the_end(tmp_path):
+    path = write_files(tmp_path, agents="# version for LoRR 2023\n3\n0\n# a note\n2\n14\n\n\n",
+                       tasks="2\n3\n13,0\n# more\n")  # fmt: skip
+    instance = read_instance(path)
+    assert instance.starts.tolist() == [0, 2, 14]
+    assert [instance.task(t).tolist() for t in range(2)] == [[3], [13, 0]]
+    assert instance.name == "x"
+    assert instance.path == path
+
+
+def test_only_the_teams_starts_are_read(tmp_path):
+    # A start file may hold more starts than the team: the competition reads the team's.
+    path = write_files(tmp_path, agents="5\n0\n2\n14\nnot a number\n\x00\x01")
+    assert read_instance(path).starts.tolist() == [0, 2, 14]
+
+
+BAD_JSON = [
+    ("[1, 2]", "must be a JSON object"),
+    ("{", "not JSON"),
+    ('{"mapFile": "m"}', "missing 'agentFile'"),
+]
+
+
+@pytest.mark.parametrize(("text", "message"), BAD_JSON)
+def test_a_json_that_is_no_instance_is_refused_in_one_line(tmp_path, text, message):
+    path = write_files(tmp_path)
+    if text.startswith('{"mapFile"'):
+        data = json.loads(path.read_text())
+        del data["agentFile"]
+        text = json.dumps(data)
+    path.write_text(text)
+    with pytest.raises(ValueError, match=message) as error:
+        read_instance(path)
+    assert "\n" not in str(error.value)
+    assert str(path) in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"teamSize": "ten"}, "teamSize must be a number"),
+        ({"teamSize": 0}, "teamSize must be 1 to"),
+        ({"teamSize": 2.5}, "teamSize must be a whole number"),
+        ({"numTasksReveal": 0}, "numTasksReveal must be above 0"),
+        ({"taskAssignmentStrategy": "magic"}, "taskAssignmentStrategy must be one of"),
+        ({"version": "1999 LoRR"}, "unknown version '1999 LoRR'"),
+        ({"agentCounter": 0}, "agentCounter must be 1 to"),
+        ({"agentSize": 2.0}, "agentSize must be above 0 and at most 1"),
+        ({"delayConfig": 3}, "delayConfig must be an object"),
+        ({"delayConfig": {"seed": 0}}, "missing 'minDelay'"),
+        ({"delayConfig": {"seed": 0, "minDelay": 5, "maxDelay": 1, "eventModel": "bernoulli",
+                          "pDelay": 0.1, "durationModel": "uniform"}}, "minDelay <= maxDelay"),
+        ({"delayConfig": {"seed": 0, "minDelay": 1, "maxDelay": 4, "eventModel": "storm",
+                          "pDelay": 0.1, "durationModel": "uniform"}}, "unknown model 'storm'"),
+        ({"delayConfig": {"seed": 0, "minDelay": 1, "maxDelay": 4, "eventModel": "poisson",
+                          "pDelay": 1.5, "durationModel": "uniform"}}, "pDelay must be a prob"),
+        ({"mapFile": "nowhere.map"}, "no such map file"),
+        ({"agentFile": "nowhere"}, "no such start file"),
+        ({"taskFile": "maps"}, "not a regular file, no task file"),
+    ],
+)  # fmt: skip
+def test_every_bad_field_is_refused_in_one_line_naming_it(tmp_path, data, message):
+    with pytest.raises(ValueError, match=message) as error:
+        read_instance(write_files(tmp_path, data=data))
+    assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("files", "message"),
+    [
+        ({"agents": ""}, r"a\.agents: no count of starts \(the file is empty\)"),
+        ({"agents": "three\n0\n"}, r"a\.agents, line 1: expected the number of starts"),
+        ({"agents": "2\n0\n2\n"}, r"teamSize is 3 but .*a\.agents has 2 starts"),
+        ({"agents": "3\n0\n2\n"}, r"a\.agents, line 4: the count says 3 starts, the file has 2"),
+        ({"agents": "3\n0\nx7\n1\n"}, r"a\.agents, line 3: a start must be locations .* 'x7'"),
+        ({"agents": "3\n0\n2\n99\n"}, r"a\.agents, line 4: location 99 is off the map"),
+        ({"agents": "3\n0\n4\n2\n"}, r"1 starts on blocked cells, the first 4 \(row 0, col 4\)"),
+        ({"agents": "3\n0\n2\n0\n"}, r"1 start cells hold two robots .*robots 0 and 2"),
+        ({"tasks": "0\n"}, r"t\.tasks, line 1: the file holds no task"),
+        ({"tasks": "3\n1\n2\n"}, r"t\.tasks, line 4: the count says 3 tasks, the file has 2"),
+        ({"tasks": "2\n1\n2,,3\n"}, r"t\.tasks, line 3: a task must be .* got 'nothing'"),
+        ({"tasks": "2\n1\n-3\n"}, r"t\.tasks, line 3: location -3 is off the map"),
+        ({"tasks": "2\n1\n3,6\n"}, r"1 task stops on blocked cells, the first 6 \(row 1, col 1\)"),
+        ({"tasks": "2\n1\n\n2\n"}, r"t\.tasks, line 3: a task must be .* got 'nothing'"),
+    ],
+)
+def test_every_fault_of_a_start_or_task_file_names_its_file_and_line(tmp_path, files, message):
+    with pytest.raises(ValueError, match=message) as error:
+        read_instance(write_files(tmp_path, **files))
+    assert "\n" not in str(error.value)
+
+
+def test_a_team_larger_than_the_start_files_count_is_refused_with_both_counts(tmp_path):
+    path = write_files(tmp_path, data={"teamSize": 7})
+    with pytest.raises(ValueError, match=r"teamSize is 7 but .* has 3 starts"):
+        read_instance(path)
+
+
+@settings(max_examples=40)
+@given(
+    rows=st.integers(2, 6),
+    cols=st.integers(2, 6),
+    shelf_bits=st.integers(0, 2**36 - 1),
+    year=st.sampled_from([2023, 2024, 2026]),
+    data=st.data(),
+)
+def test_random_instances_round_trip(tmp_path_factory, rows, cols, shelf_bits, year, data):
+    layout = ["".join("#" if (shelf_bits >> (r * 6 + c)) & 1 else "." for c in range(cols))
+              for r in range(rows)]  # fmt: skip
+    layout[0] = "." + layout[0][1:]
+    try:
+        grid = WarehouseGrid.from_layout(layout)
+    except ValueError:  # no floor beside the start: no map
+        reject()
+    free = [r * cols + c for r in range(rows) for c in range(cols) if layout[r][c] == "."]
+    starts = data.draw(st.lists(st.sampled_from(free), min_size=1, max_size=len(free),
+                                unique=True))  # fmt: skip
+    most = 1 if year == 2023 else 4
+    tasks = data.draw(st.lists(st.lists(st.sampled_from(free), min_size=1, max_size=most),
+                               min_size=1, max_size=30))  # fmt: skip
+    offsets = np.cumsum([0] + [len(task) for task in tasks])
+    delay = DelayConfig(3, 1, 5, "poisson", 0.25, "gaussian") if year == 2026 else None
+    instance = LorrInstance(
+        name="round", grid=grid, starts=starts, task_offsets=offsets,
+        task_stops=[stop for task in tasks for stop in task],
+        num_tasks_reveal=1.0 if year == 2023 else 1.5,
+        assignment=data.draw(st.sampled_from(["roundrobin", "greedy"])) if year == 2023
+        else "scheduler",
+        version=None if year == 2023 else f"{year} LoRR",
+        agent_counter=10 if year == 2026 else None, delay=delay,
+    )  # fmt: skip
+    folder = tmp_path_factory.mktemp("round")
+    again = read_instance(write_instance(instance, folder / "round.json"))
+    assert again.starts.tolist() == starts
+    assert [again.task(t).tolist() for t in range(again.num_tasks)] == tasks
+    assert again.grid.shelves == grid.shelves
+    assert (again.grid.rows, again.grid.cols) == (rows, cols)
+    for field in ("num_tasks_reveal", "assignment", "version", "agent_counter", "delay"):
+        assert getattr(again, field) == getattr(instance, field)
