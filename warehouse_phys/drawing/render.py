@@ -47,6 +47,10 @@ MAX_FRAME_PIXELS = 2**25
 STATUS_BACKGROUND = (38, 42, 48)  # RGB
 DELIVERED_FRAME = (90, 200, 90)  # RGB: around the cell where the package was delivered
 STATUS_TEXT = (235, 235, 235)  # RGB
+#: A turning robot's heading in text frames: east, south, west, north.
+HEADING_GLYPHS = ">v<^"
+#: The pointer that shows a turning robot's heading in pictures.
+HEADING_POINTER = (20, 20, 24)  # RGB
 
 
 def sprite_path(name: str) -> Path:
@@ -102,22 +106,34 @@ def fleet_ansi_frame(
     packages: Sequence[Sequence[int]],
     shown: Sequence[bool],
     shelves: Collection[tuple[int, int]] = (),
+    *,
+    headings: Sequence[int] | None = None,
 ) -> str:
     """A fleet's console picture: one line per grid row, cells separated by spaces.
 
     Robot ``i`` (at ``robots[i]``) is the digit ``i % 10``, its package (at
     ``packages[i]``) the letter ``"a"`` + ``i % 26``, drawn only where
     ``shown[i]`` (a robot on the floor); ``#`` shelf, ``_`` floor. Robots are
-    drawn over packages.
+    drawn over packages. With ``headings`` (turning robots, 0..3 east, south, west,
+    north) each robot's heading stands right after its digit, in place of the space:
+    :data:`HEADING_GLYPHS` (``>``, ``v``, ``<``, ``^``).
     """
     board = [["#" if (r, c) in shelves else "_" for c in range(cols)] for r in range(rows)]
+    after = [[" "] * cols for _ in range(rows)]
     for i, (row, col) in enumerate(packages):
         if shown[i]:
             board[row][col] = chr(ord("a") + i % 26)
     for i, (row, col) in enumerate(robots):
         if shown[i]:
             board[row][col] = str(i % 10)
-    return "\n".join(" ".join(line) for line in board)
+            if headings is not None:
+                after[row][col] = HEADING_GLYPHS[headings[i] % 4]
+    if headings is None:
+        return "\n".join(" ".join(line) for line in board)
+    return "\n".join(
+        "".join(a + b for a, b in zip(line, tail, strict=True)).rstrip()
+        for line, tail in zip(board, after, strict=True)
+    )
 
 
 def import_pygame() -> ModuleType:
@@ -376,11 +392,14 @@ class WarehouseRenderer:
         packages: Sequence[tuple[int, int]],
         status: str = "",
         delivered: Sequence[bool] | None = None,
+        headings: Sequence[float] | None = None,
     ) -> np.ndarray:
         """A frame of a fleet: robot ``i`` at ``robots[i]`` (cell units, as in :meth:`draw`)
         in a ring of colour ``FLEET_COLOURS[i]``, its package framed in the same colour (the
         frame stays visible round a robot standing on it); a robot whose ``delivered`` is
-        true stands in a green frame, as the single robot's delivery is shown.
+        true stands in a green frame, as the single robot's delivery is shown. With
+        ``headings`` (turning robots: quarter turns clockwise from east, fractions while
+        a robot turns) a dark pointer runs from each robot's centre to its rim.
 
         On cells under :data:`FLEET_SPRITE_MIN_PX` the robots are discs of their colour and
         the packages dark squares in a frame of their robot's colour, all drawn with array
@@ -392,6 +411,8 @@ class WarehouseRenderer:
         if px < FLEET_SPRITE_MIN_PX:
             frame = np.ascontiguousarray(pg.surfarray.pixels3d(surface).transpose(1, 0, 2))
             _stamp_fleet(frame, px, border, robots, packages, delivered)
+            if headings is not None:
+                _stamp_headings(frame, px, robots, headings)
             return frame
         for i, (row, col) in enumerate(packages):
             colour = FLEET_COLOURS[i % len(FLEET_COLOURS)]
@@ -407,6 +428,10 @@ class WarehouseRenderer:
             if delivered is not None and delivered[i]:
                 corner = (round(col * px), round(row * px))
                 pg.draw.rect(surface, DELIVERED_FRAME, (*corner, px, px), width=2 * border)
+            if headings is not None:
+                tip_row, tip_col = _pointer_tip(row, col, headings[i], 0.45)
+                start, end = (centre, ((tip_col + 0.5) * px, (tip_row + 0.5) * px))
+                pg.draw.line(surface, HEADING_POINTER, start, end, max(2, px // 10))
         return np.ascontiguousarray(pg.surfarray.pixels3d(surface).transpose(1, 0, 2))
 
     # ------------------------------------------------------------------- window
@@ -567,6 +592,29 @@ def _stamp_fleet(
         _stamp(frame, corners[done, 0], corners[done, 1], ring, DELIVERED_FRAME)
 
 
+def _pointer_tip(row: float, col: float, heading: float, length: float) -> tuple[float, float]:
+    """Where a pointer ``length`` cells long from ``(row, col)`` along ``heading`` ends
+    [cells]."""
+    angle = heading * np.pi / 2  # quarter turns clockwise from east (rows grow downwards)
+    return row + np.sin(angle) * length, col + np.cos(angle) * length
+
+
+def _stamp_headings(
+    frame: np.ndarray, px: int, robots: Sequence[Sequence[float]], headings: Sequence[float]
+) -> None:
+    """Each robot's heading as a dark square between its centre and its rim (cells of
+    ``px`` pixels, robots at cell positions), painted with array operations."""
+    size = max(1, px // 4)
+    angle = np.asarray(headings, dtype=np.float64) * np.pi / 2
+    at = np.asarray(robots, dtype=np.float64).reshape(-1, 2) + 0.5
+    reach = (px * 9 / 20 - size / 2) / px  # [cells] from the centre
+    middle = (at + reach * np.stack([np.sin(angle), np.cos(angle)], axis=1)) * px
+    corner = np.rint(middle - size / 2).astype(np.int64)
+    limit = np.array(frame.shape[:2]) - size
+    corner = np.clip(corner, 0, limit)
+    _stamp(frame, corner[:, 0], corner[:, 1], np.ones((size, size), dtype=bool), HEADING_POINTER)
+
+
 def map_cell_px(rows: int, cols: int, width_px: int = MAP_FRAME_WIDTH_PX) -> int:
     """The cell size [px] that fits the longer side of a ``rows`` x ``cols`` floor in
     ``width_px`` (at least 1, at most 24): 2 px for the 500 x 140 warehouse."""
@@ -581,6 +629,7 @@ def fleet_map_frame(
     parked: np.ndarray | None = None,
     on_floor: np.ndarray | None = None,
     cell_px: int | None = None,
+    headings: np.ndarray | None = None,
 ) -> np.ndarray:
     """A fleet on a large floor as an ``(H, W, 3)`` uint8 map, drawn with array operations
     (no pygame, no sprites: one pass however many robots): the floor light, shelves light
@@ -590,7 +639,10 @@ def fleet_map_frame(
     keeping its colour inside, when a cell is 4 px or more; on smaller cells it is a
     green square. Where a robot stands on its or another's package and the cell is 3 px
     or more, the package shows as a dark square in the robot's middle. Robots that left
-    the floor are not drawn. ``cell_px`` defaults to :func:`map_cell_px`.
+    the floor are not drawn. ``cell_px`` defaults to :func:`map_cell_px`. With
+    ``headings`` (turning robots, 0..3) each robot's cell shows its heading as a dark
+    mark on the side it faces, on cells of 3 px or more (a 1- or 2-pixel cell has no
+    side to mark).
 
     Raises:
         ValueError: if ``cell_px`` is below 1.
@@ -634,4 +686,7 @@ def fleet_map_frame(
         for d_row in range(inner, px - inner):
             for d_col in range(inner, px - inner):
                 frame[under[:, 0] * px + d_row, under[:, 1] * px + d_col] = MAP_PACKAGE
+    if headings is not None and px >= 3:
+        on = robots[shown].astype(np.float64)
+        _stamp_headings(frame, px, on, np.asarray(headings, dtype=np.float64)[shown])
     return frame

@@ -10,6 +10,7 @@ is a fifth of it; the rules it applies live in :mod:`warehouse_phys.rules`.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from typing import Any
 
@@ -21,38 +22,57 @@ from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from warehouse_phys.drawing.render import DEFAULT_CELL_PX, WarehouseRenderer, fleet_ansi_frame
-from warehouse_phys.envs import onehot
+from warehouse_phys.envs.fleet_actions import FleetActions
+from warehouse_phys.envs.fleet_observations import (
+    MAX_GLOBAL_OBSERVATION_ROBOTS,
+    NEIGHBOUR_BITS,
+    OBSERVATIONS,
+    FleetObservations,
+    robot_infos,
+)
 from warehouse_phys.physics import PhysicsConfig, check_controller, physics_config_from
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
 from warehouse_phys.rules.batched import step_rewards
 from warehouse_phys.rules.distances import DistanceMaps
+from warehouse_phys.rules.errands import ErrandList, errand_list
+from warehouse_phys.rules.headings import MOVE_MODELS, TURN_ACTIONS, Heading, joint_grants
+from warehouse_phys.rules.instances import LorrInstance, as_instance
 from warehouse_phys.rules.layouts import make_grid, suggested_time_limit
-from warehouse_phys.rules.traffic import (
-    FLEET_ACTIONS,
-    WAIT,
-    check_clearance,
-    corner_follows_are_safe,
-    granted_moves,
-    neighbour_table,
+from warehouse_phys.rules.placement import (
+    START_MODES,
+    check_room,
+    draw_new_packages,
+    draw_placement,
+    layout_starts,
+    package_cells,
+    reachable_cells,
 )
+from warehouse_phys.rules.scheduling import Scheduler
+from warehouse_phys.rules.traffic import FLEET_ACTIONS, check_clearance, corner_follows_are_safe
 
-OBSERVATIONS = ("local", "global", "neighbours", "onehot", "neighbours_onehot")
+__all__ = [
+    "DELIVERY_MODES",
+    "LORR_STEPS",
+    "MAX_GLOBAL_OBSERVATION_ROBOTS",
+    "MAX_PHYSICS_ROBOTS",
+    "NEIGHBOUR_BITS",
+    "OBSERVATIONS",
+    "START_MODES",
+    "WarehouseFleetEnv",
+    "env",
+    "parallel_env",
+]
+
 DELIVERY_MODES = ("park", "leave", "new_package")
-START_MODES = ("auto", "layout", "random")
-#: Most robots whose observation may be ``"global"``: each robot's copy of the state
-#: holds 4 numbers per robot, so the observations grow with the square of the fleet.
-MAX_GLOBAL_OBSERVATION_ROBOTS = 256
 #: Most robots in the physics world (one pymunk space; a step of 1,024 random moves
 #: takes a few milliseconds of chipmunk and of the closest-approach diagnostic).
 MAX_PHYSICS_ROBOTS = 1024
-#: Bits of the ``"neighbours"`` mask, in action order: a robot stands LEFT, DOWN, RIGHT, UP.
-NEIGHBOUR_BITS = (1, 2, 4, 8)
-_INTEGER_TYPES = frozenset({int, np.int64, np.int32, np.int16, np.int8, np.uint8,
-                            np.uint16, np.uint32, np.uint64})  # fmt: skip
+#: An instance fleet's ``max_cycles`` by default: the competition's 5,000 steps.
+LORR_STEPS = 5000
 
 
 class WarehouseFleetEnv(ParallelEnv):
-    """Robots on one warehouse floor, each delivering its own packages.
+    """Robots on one warehouse floor, each delivering its own packages or a task list's errands.
 
     ## Description
     ``num_robots`` robots share one floor (the default 4 x 5, any size, a preset,
@@ -76,10 +96,20 @@ class WarehouseFleetEnv(ParallelEnv):
     prove that the bodies end on the grid twin's cells, and that no two discs
     ever come closer than their diameter minus the collision slop.
 
+    With ``moves="rotate"`` the robots are the League of Robot Runners' turning
+    robots (:mod:`warehouse_phys.rules.headings`): each faces east, south, west or
+    north, and turns in place or drives forward; in the physics world the body turns
+    through the physics (its angle is the heading, snapped like its position). With
+    ``instance=`` the fleet is a League of Robot Runners problem
+    (:mod:`warehouse_phys.rules.instances`): its floor, its robots' starts and its
+    task list, handed out as the competition does (:mod:`warehouse_phys.rules.errands`).
+
     ## Action Space
     ``Discrete(5)`` per robot: LEFT=0, DOWN=1, RIGHT=2, UP=3 (as the single
-    environments) and WAIT=4 (:data:`warehouse_phys.rules.traffic.WAIT`). ``step``
-    takes a dict with an action for every live robot; anything else raises
+    environments) and WAIT=4 (:data:`warehouse_phys.rules.traffic.WAIT`). Turning
+    robots: ``Discrete(4)``, FORWARD=0, CLOCKWISE=1, COUNTERCLOCKWISE=2, WAIT=3
+    (:class:`~warehouse_phys.rules.headings.TurnAction`, the competition's order).
+    ``step`` takes a dict with an action for every live robot; anything else raises
     ``ValueError``/``TypeError`` naming the robot and changes nothing.
 
     ## Observation Space
@@ -101,6 +131,11 @@ class WarehouseFleetEnv(ParallelEnv):
       as 4 bits of 0.0 or 1.0 in action order (a robot stands LEFT, DOWN, RIGHT,
       UP), ``Box(0, 1, (R + C + R + C + 4,), float32)``.
 
+    Turning robots see their heading (0..3) after their package in every kind
+    (``"local"``: ``MultiDiscrete([R, C, R, C, 4])``; one-hot: 4 more places
+    before the mask). In an instance fleet a robot's package is its next errand,
+    and a robot without one (every task handed out) sees its own cell there.
+
     ## Starting State
     ``starts="layout"``: on a floor with several ``S`` cells robot ``i`` stands
     on the ``i``-th in reading order; otherwise robot 0 on the floor's start and
@@ -112,10 +147,13 @@ class WarehouseFleetEnv(ParallelEnv):
     (MovingAI maps, the ``warehouse`` preset) and ``"layout"`` elsewhere. Each
     robot's package is drawn uniformly from the floor's package cells, never on
     a robot's cell or another robot's package. A floor without room for the
-    fleet is refused with a ``ValueError`` that gives the counts.
+    fleet is refused with a ``ValueError`` that gives the counts. Placement rules:
+    :mod:`warehouse_phys.rules.placement`. Turning robots face east. An instance
+    fleet starts where its instance says, and its first errands are handed out.
 
     ## Rewards
-    1.0 to a robot on the step it reaches its package, else 0.0.
+    1.0 to a robot on the step it reaches its package (an instance fleet: an errand),
+    else 0.0.
 
     ## Episode End
     ``on_delivery`` decides what a robot does once it reaches its package:
@@ -123,11 +161,13 @@ class WarehouseFleetEnv(ParallelEnv):
     ``"leave"``: it terminates and leaves the floor (POGEMA's one-shot mode);
     ``"new_package"``: it gets a new package at once and never terminates
     (lifelong; ``lifelong=True`` is shorthand for it). The episode ends when
-    every robot has terminated or at ``max_cycles`` steps (truncation).
+    every robot has terminated or at ``max_cycles`` steps (truncation). An instance
+    fleet is lifelong: its robots take the errands of the list.
 
     ``infos[robot]`` holds ``optimal_steps`` (to its own package, ignoring the
-    other robots), ``refused`` (whether traffic turned its move into a wait),
-    ``deliveries`` (packages delivered this episode) and, in the physics world,
+    other robots and turns), ``refused`` (whether traffic turned its move into a
+    wait), ``deliveries`` (packages delivered, or errands finished, this episode),
+    ``tasks`` in an instance fleet (tasks finished) and, in the physics world,
     ``snap_error`` and ``min_gap``: the smallest distance during the step between
     its disc and the disc of a robot that started the step within reach, at most
     :data:`~warehouse_phys.physics.batched.GAP_REACH` rows and columns away (the
@@ -139,20 +179,30 @@ class WarehouseFleetEnv(ParallelEnv):
 
     Planners and evaluators read the fleet through read-only arrays:
     :attr:`robot_cells` and :attr:`package_cells` ``(N, 2)``, :attr:`parked`,
-    :attr:`on_floor`, :attr:`deliveries` ``(N,)``, :attr:`steps`, and
-    :attr:`distances`, the floor's shortest-path distances to packages (one
-    :class:`~warehouse_phys.rules.distances.DistanceMaps`, built as packages appear).
+    :attr:`on_floor`, :attr:`deliveries` ``(N,)``, :attr:`robot_headings` (turning
+    robots), :attr:`steps`, :attr:`distances`, the floor's shortest-path distances
+    to packages (one :class:`~warehouse_phys.rules.distances.DistanceMaps`, built as
+    packages appear), and an instance fleet's :attr:`errands`
+    (:class:`~warehouse_phys.rules.errands.ErrandList`: errands and tasks finished).
 
     ## Arguments
-    - ``num_robots`` (int, default 2): at least 1, at most what the floor has
-      start and package cells for (at most :data:`MAX_PHYSICS_ROBOTS` in the
-      physics world).
+    - ``num_robots`` (int, default 2; an instance's ``teamSize``): at least 1, at
+      most what the floor has start and package cells for (at most
+      :data:`MAX_PHYSICS_ROBOTS` in the physics world).
     - ``physics`` (bool, default False): whether the robots are bodies in a
       physics world; the attribute :attr:`physics` is then its
       :class:`~warehouse_phys.physics.PhysicsConfig` (``None`` in the grid twin),
       as in every environment. The physical keywords of
       :class:`~warehouse_phys.envs.WarehousePhysicsEnv` (``robot_radius`` ...)
       also decide for the grid twin whether corner follows are granted.
+    - ``moves`` (``"grid"``, default: four directions; ``"rotate"``: turning robots).
+    - ``instance`` (a :class:`~warehouse_phys.rules.instances.LorrInstance` or the path
+      of its JSON file): the floor, starts and errands of a League of Robot Runners
+      problem; then ``grid_rows``, ``grid_cols``, ``layout`` and ``starts`` are not
+      given, ``max_cycles`` defaults to :data:`LORR_STEPS`; ``scheduler`` (a
+      :data:`~warehouse_phys.rules.scheduling.Scheduler`, for 2024 and later
+      instances; default the nearest pairing) and ``record_errands`` (bool: keep
+      the events the competition's output file lists).
     - ``grid_rows``, ``grid_cols``, ``layout``: the floor, as in the single
       environments (``layout`` also takes a path to a MovingAI ``.map`` file).
     - ``on_delivery`` (``"park"``, ``"leave"``, ``"new_package"``), ``lifelong``
@@ -162,14 +212,17 @@ class WarehouseFleetEnv(ParallelEnv):
       ``"neighbours"``, ``"global"``, ``"onehot"``, ``"neighbours_onehot"``),
       ``render_mode`` (``None``; ``"rgb_array"``:
       every robot in a ring of its own colour, its package framed in the same
-      colour; ``"ansi"``: robots as digits, packages as letters), ``cell_px``.
+      colour, a turning robot's heading as a pointer; ``"ansi"``: robots as digits,
+      a turning robot's heading after it as ``> v < ^``, packages as letters),
+      ``cell_px``.
       :meth:`move_frames` gives the physics world's motion during the last step,
       one frame per physics step.
     - ``track_gaps`` (bool, default True): whether the physics world measures
       ``min_gap``.
 
     ## Version History
-    - v0: first version.
+    - v0: first version; turning robots and instances added without changing what
+      the four-direction fleet does.
     """
 
     metadata: dict[str, Any] = {  # noqa: RUF012 - PettingZoo reads this class attribute
@@ -181,7 +234,7 @@ class WarehouseFleetEnv(ParallelEnv):
 
     def __init__(
         self,
-        num_robots: int = 2,
+        num_robots: int | None = None,
         physics: bool = False,
         grid_rows: int | None = None,
         grid_cols: int | None = None,
@@ -194,13 +247,14 @@ class WarehouseFleetEnv(ParallelEnv):
         on_delivery: str | None = None,
         starts: str = "auto",
         track_gaps: bool = True,
+        moves: str = "grid",
+        instance: LorrInstance | str | os.PathLike[str] | None = None,
+        scheduler: Scheduler | None = None,
+        record_errands: bool = False,
         **physical: float,
     ) -> None:
-        if isinstance(num_robots, bool) or not isinstance(num_robots, (int, np.integer)):
-            raise TypeError(f"num_robots must be an integer, got {num_robots!r}")
-        if num_robots < 1:
-            raise ValueError(f"num_robots must be at least 1, got {num_robots}")
-        flags = (("physics", physics), ("lifelong", lifelong), ("track_gaps", track_gaps))
+        flags = (("physics", physics), ("lifelong", lifelong), ("track_gaps", track_gaps),
+                 ("record_errands", record_errands))  # fmt: skip
         for name, flag in flags:
             if not isinstance(flag, bool):
                 raise TypeError(f"{name} must be a bool, got {flag!r}")
@@ -208,9 +262,30 @@ class WarehouseFleetEnv(ParallelEnv):
             ("observation", observation, OBSERVATIONS),
             ("on_delivery", "park" if on_delivery is None else on_delivery, DELIVERY_MODES),
             ("starts", starts, START_MODES),
+            ("moves", moves, MOVE_MODELS),
         ):
             if not isinstance(value, str) or value not in choices:
                 raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
+        floor = {"grid_rows": grid_rows, "grid_cols": grid_cols, "layout": layout}
+        self.instance = _instance_of(instance, floor, starts, scheduler)
+        if self.instance is not None:
+            if on_delivery not in (None, "new_package"):
+                raise ValueError(
+                    f"an instance fleet is lifelong (its robots take the task list's errands); "
+                    f"got on_delivery={on_delivery!r}"
+                )
+            lifelong = True
+            num_robots = self.instance.team_size if num_robots is None else num_robots
+        num_robots = 2 if num_robots is None else num_robots
+        if isinstance(num_robots, bool) or not isinstance(num_robots, (int, np.integer)):
+            raise TypeError(f"num_robots must be an integer, got {num_robots!r}")
+        if num_robots < 1:
+            raise ValueError(f"num_robots must be at least 1, got {num_robots}")
+        if self.instance is not None and num_robots != self.instance.team_size:
+            raise ValueError(
+                f"num_robots={num_robots} but the instance {self.instance.name} has teamSize "
+                f"{self.instance.team_size}; leave num_robots out"
+            )
         if lifelong and on_delivery not in (None, "new_package"):
             raise ValueError(
                 f"lifelong=True means on_delivery='new_package'; got on_delivery={on_delivery!r}"
@@ -235,14 +310,20 @@ class WarehouseFleetEnv(ParallelEnv):
                 f"(each robot's copy holds 4 numbers per robot: {num_robots} robots would need "
                 f"{32 * num_robots**2 / 2**20:,.0f} MiB a step); use 'local' or 'neighbours'"
             )
-        self.grid = make_grid(grid_rows, grid_cols, layout)
+        self.grid = (
+            make_grid(grid_rows, grid_cols, layout) if self.instance is None else self.instance.grid
+        )
         self.num_robots = int(num_robots)
         self._track_gaps = track_gaps
         self.on_delivery = "new_package" if lifelong else on_delivery or "park"
         self.observation = observation
         self.render_mode = render_mode
+        #: The move model: ``"grid"`` (four directions) or ``"rotate"`` (turning robots).
+        self.moves = moves
         if max_cycles is None:
-            max_cycles = suggested_time_limit(self.grid)
+            max_cycles = (
+                LORR_STEPS if self.instance is not None else suggested_time_limit(self.grid)
+            )
         if isinstance(max_cycles, bool) or not isinstance(max_cycles, (int, np.integer)):
             raise TypeError(f"max_cycles must be an integer, got {max_cycles!r}")
         if max_cycles < 1:
@@ -252,40 +333,43 @@ class WarehouseFleetEnv(ParallelEnv):
         # whether the rule grants corner follows.
         config = physics_config_from(physical)
         if physics:  # the controller keeps one robot's promises, and the fleet's robots apart
-            check_clearance(config.robot_diameter, *check_controller(config))
+            check_clearance(config.robot_diameter, *check_controller(config, turning=self.turning))
         #: The physics world's parameters, as in every environment; ``None`` in the grid twin.
         self.physics: PhysicsConfig | None = config if physics else None
         #: Whether the traffic rule grants corner follows (robots small enough to pass).
         self.corner_follows = corner_follows_are_safe(config.robot_diameter)
-        if starts == "auto":
+        self._errands: ErrandList | None = None
+        if self.instance is not None:
+            starts = "layout"
+            self._errands = errand_list(self.instance, scheduler=scheduler, record=record_errands)
+        elif starts == "auto":
             starts = "layout" if getattr(self.grid, "starts_marked", True) else "random"
         self.starts_mode = starts
-        cols = self.grid.cols
-        self._targets = np.array([r * cols + c for r, c in self.grid.target_cells], np.int64)
-        self._reachable = np.array(sorted(r * cols + c for r, c in self.grid.reachable), np.int64)
-        self._check_room()
+        self._targets = package_cells(self.grid)
+        self._reachable = reachable_cells(self.grid)
+        self._layout_starts_index = None
+        if self.instance is not None:
+            self._layout_starts_index = self.instance.starts
+        elif starts == "layout":
+            self._layout_starts_index = layout_starts(self.grid, self.num_robots, self._reachable)
+        if self.instance is None:
+            check_room(self.num_robots, starts, self.lifelong, self._targets, self._reachable,
+                       self._layout_starts_index)  # fmt: skip
 
         self.possible_agents = [f"robot_{i}" for i in range(self.num_robots)]
         self.agents: list[str] = []
         self._index = {agent: i for i, agent in enumerate(self.possible_agents)}
-        rows = self.grid.rows
-        self._local_space = spaces.MultiDiscrete([rows, cols, rows, cols])
-        self._neighbours_space = spaces.MultiDiscrete([rows, cols, rows, cols, 16])
-        self._onehot_space = spaces.Box(0.0, 1.0, (2 * rows + 2 * cols,), np.float32)
-        self._neighbours_onehot_space = spaces.Box(
-            0.0, 1.0, (2 * rows + 2 * cols + len(NEIGHBOUR_BITS),), np.float32
-        )
-        self._action_space = spaces.Discrete(FLEET_ACTIONS)
         n = self.num_robots
-        self.state_space = (
-            spaces.MultiDiscrete([rows, cols, rows, cols] * n)
-            if n <= MAX_GLOBAL_OBSERVATION_ROBOTS
-            else None
-        )
+        self._observer = FleetObservations(observation, self.grid, n, turning=self.turning)
+        self.state_space = self._observer.state_space
+        count = TURN_ACTIONS if self.turning else FLEET_ACTIONS
+        self._actions = FleetActions(n, count, self._index)
+        self._action_space = spaces.Discrete(count)
 
         self.np_random, _ = seeding.np_random(None)
         self._cells = np.zeros((n, 2), dtype=np.int64)  # and _here, as indices
         self._packages = np.zeros((n, 2), dtype=np.int64)  # and _package_index
+        self._headings = np.zeros(n, dtype=np.int64) if self.turning else None
         self._every_robot = _read_only(np.arange(n))
         self._parked = np.zeros(n, dtype=bool)
         self._on_floor = np.ones(n, dtype=bool)
@@ -334,9 +418,16 @@ class WarehouseFleetEnv(ParallelEnv):
         return self.on_delivery == "new_package"
 
     @property
+    def turning(self) -> bool:
+        """Whether the robots turn and drive forward (``moves="rotate"``)."""
+        return self.moves == "rotate"
+
+    @property
     def starts(self) -> list[tuple[int, int]]:
         """The start cells of ``starts="layout"`` (the robots' cells at every reset)."""
-        return [tuple(cell) for cell in self._layout_starts().tolist()]
+        if self._layout_starts_index is None:
+            return []
+        return [divmod(int(cell), self.grid.cols) for cell in self._layout_starts_index]
 
     @property
     def robot_cells(self) -> np.ndarray:
@@ -345,9 +436,22 @@ class WarehouseFleetEnv(ParallelEnv):
         return _read_only(self._cells)
 
     @property
+    def robot_headings(self) -> np.ndarray | None:
+        """Each turning robot's heading (:class:`~warehouse_phys.rules.headings.Heading`),
+        ``(N,)`` int64, read-only; ``None`` for robots that do not turn."""
+        return None if self._headings is None else _read_only(self._headings)
+
+    @property
     def package_cells(self) -> np.ndarray:
-        """Each robot's package ``(row, col)``, ``(N, 2)`` int64, read-only."""
+        """Each robot's package ``(row, col)``, ``(N, 2)`` int64, read-only (an instance
+        fleet: its next errand; its own cell for a robot without one)."""
         return _read_only(self._packages)
+
+    @property
+    def errands(self) -> ErrandList | None:
+        """An instance fleet's errand list (errands and tasks finished, events);
+        ``None`` for a fleet that draws its packages."""
+        return self._errands
 
     @property
     def parked(self) -> np.ndarray:
@@ -361,7 +465,8 @@ class WarehouseFleetEnv(ParallelEnv):
 
     @property
     def deliveries(self) -> np.ndarray:
-        """Packages each robot delivered this episode, ``(N,)`` int64, read-only."""
+        """Packages each robot delivered (an instance fleet: errands it finished) this
+        episode, ``(N,)`` int64, read-only."""
         return _read_only(self._deliveries)
 
     @property
@@ -379,40 +484,36 @@ class WarehouseFleetEnv(ParallelEnv):
     def observation_space(self, agent: str) -> spaces.MultiDiscrete | spaces.Box:
         """The observation space of ``agent`` (the same object on every call)."""
         self._checked_agent(agent)
-        return {
-            "local": self._local_space,
-            "neighbours": self._neighbours_space,
-            "global": self.state_space,
-            "onehot": self._onehot_space,
-            "neighbours_onehot": self._neighbours_onehot_space,
-        }[self.observation]
+        return self._observer.space
 
     def action_space(self, agent: str) -> spaces.Discrete:
-        """``Discrete(5)``: the four moves and WAIT (the same object on every call)."""
+        """``Discrete(5)``: the four moves and WAIT; turning robots ``Discrete(4)``:
+        forward, the two turns and WAIT (the same object on every call)."""
         self._checked_agent(agent)
         return self._action_space
 
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
-        """Every robot on a start cell with a new package; ``seed`` seeds the generator.
+        """Every robot on a start cell with a new package (an instance fleet: its first
+        errand); ``seed`` seeds the generator.
 
         ``options`` are accepted and ignored (PettingZoo's test suites pass some).
         """
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
-        rng = self.np_random
         n, cols = self.num_robots, self.grid.cols
-        if self.starts_mode == "random":  # the packages first, then the starts off them
-            packages = self._targets[rng.choice(len(self._targets), n, replace=False)]
-            allowed = self._reachable[~np.isin(self._reachable, packages)]
-            here = allowed[rng.choice(len(allowed), n, replace=False)]
-        else:
+        if self._errands is not None:
             here = self._layout_starts_index
-            allowed = self._targets[~np.isin(self._targets, here)]
-            packages = allowed[rng.choice(len(allowed), n, replace=False)]
+            self._errands.reset(here)
+            packages = np.where(self._errands.goals >= 0, self._errands.goals, here)
+        else:
+            here, packages = draw_placement(self.np_random, n, self._targets, self._reachable,
+                                            self._layout_starts_index)  # fmt: skip
         self._cells = np.stack(np.divmod(here, cols), axis=1)
         self._packages = np.stack(np.divmod(packages, cols), axis=1)
+        if self._headings is not None:
+            self._headings[:] = Heading.EAST
         self.agents = list(self.possible_agents)
         self._parked[:] = False
         self._on_floor[:] = True
@@ -422,9 +523,10 @@ class WarehouseFleetEnv(ParallelEnv):
             self.world = BatchedPhysicsWorld(
                 self.grid, self.physics, self._cells, np.zeros(n, dtype=np.int64),
                 record_path=self.track_gaps or self.render_mode == "rgb_array",
+                headings=self._headings,
             )  # fmt: skip
         elif self.physics:  # every robot as newly built, in the same world
-            self.world.restart(np.arange(n), self._cells)
+            self.world.restart(np.arange(n), self._cells, self._headings)
         live = np.arange(n)
         refused = np.zeros(n, dtype=bool)
         return self._observations(live), self._infos(live, refused, None, None)
@@ -434,26 +536,26 @@ class WarehouseFleetEnv(ParallelEnv):
         if not self.agents:
             raise ValueError("the episode is over (no live robots): call reset()")
         live = self._live_indices()
-        joint = self._checked_actions(actions, live)
+        joint = self._actions.joint(actions, self.agents, live)
+        floor = None if self.on_delivery != "leave" or self._on_floor.all() else self._on_floor
+        moved, refused, bumped, headings = joint_grants(
+            self.grid, self._here, joint, self._headings,
+            parked=None if self.lifelong else self._parked, on_floor=floor,
+            corner_follows=self.corner_follows,
+        )  # fmt: skip
         cols = self.grid.cols
-        here = self._here
-        if self.on_delivery != "leave" or self._on_floor.all():
-            parked = None if self.on_delivery == "new_package" else self._parked  # none park
-            moved, refused, bumped = granted_moves(
-                self.grid, here, joint, parked, corner_follows=self.corner_follows
-            )
-        else:  # robots that left are no obstacles
-            floor = self._on_floor
-            moved, (refused, bumped) = here.copy(), np.zeros((2, self.num_robots), dtype=bool)
-            moved[floor], refused[floor], bumped[floor] = granted_moves(
-                self.grid, here[floor], joint[floor], self._parked[floor],
-                corner_follows=self.corner_follows,
-            )  # fmt: skip
         ends = np.empty((self.num_robots, 2), dtype=np.int64)
         np.divmod(moved, cols, out=(ends[:, 0], ends[:, 1]))
         snap_errors = gaps = None
+        if headings is not None:
+            self._headings = headings
         if self.physics:  # the granted moves and the bumps driven, the rest held
-            body_cells, snap_errors = self.world.move_granted(joint, ends, bumped)
+            if self.turning:  # the headings read from the bodies too
+                body_cells, self._headings, snap_errors = self.world.move_turning(
+                    ends, headings, bumped
+                )
+            else:
+                body_cells, snap_errors = self.world.move_granted(joint, ends, bumped)
             ends = np.asarray(body_cells, dtype=np.int64).reshape(-1, 2)
             gaps = self.world.closest_gaps() if self.track_gaps else None
         self._cell_rows_cols = ends  # the cells, their indices set below
@@ -463,10 +565,17 @@ class WarehouseFleetEnv(ParallelEnv):
             moved = ends[:, 0] * cols + ends[:, 1]
         self._here = moved
         arrived = moved == self._package_index
-        if len(live) < self.num_robots:  # the parked and the gone deliver no more
+        if self._errands is not None:
+            arrived &= self._errands.goals >= 0
+        elif len(live) < self.num_robots:  # the parked and the gone deliver no more
             arrived &= np.isin(self._every_robot, live)
         delivered = arrived.nonzero()[0]
-        if delivered.size:
+        if self._errands is not None:
+            self._deliveries[delivered] += 1
+            self._errands.step(delivered, moved)
+            goals = self._errands.goals
+            self._packages = np.stack(np.divmod(np.where(goals >= 0, goals, moved), cols), axis=1)
+        elif delivered.size:
             self._deliveries[delivered] += 1
             if self.on_delivery == "new_package":
                 self._draw_new_packages(delivered)
@@ -501,16 +610,19 @@ class WarehouseFleetEnv(ParallelEnv):
             return None
         if not self._steps and not self.agents:
             raise ValueError("call reset() before render()")
+        headings = None if self._headings is None else self._headings.tolist()
         if self.render_mode == "ansi":
             return fleet_ansi_frame(
                 self.grid.rows, self.grid.cols, self._cells.tolist(), self._package_list(),
-                self._on_floor.tolist(), self.grid.shelves,
+                self._on_floor.tolist(), self.grid.shelves, headings=headings,
             )  # fmt: skip
-        positions = (
-            self.world.positions().tolist() if self.world is not None else self._cells.tolist()
-        )
+        if self.world is not None:
+            positions = self.world.positions().tolist()
+            headings = None if self._headings is None else self.world.orientations().tolist()
+        else:
+            positions = self._cells.tolist()
         return self._renderer.fleet_rgb_array(
-            positions, self._package_list(), delivered=self._parked.tolist()
+            positions, self._package_list(), delivered=self._parked.tolist(), headings=headings
         )
 
     def move_frames(self) -> list[np.ndarray]:
@@ -528,184 +640,50 @@ class WarehouseFleetEnv(ParallelEnv):
                 "or track_gaps=True"
             )
         paths = self.world.last_paths  # (K, steps, 2)
+        turns = self.world.last_orientations if self.turning else None  # (K, steps)
         packages = self._package_list()
         return [
-            self._renderer.fleet_rgb_array(paths[:, step].tolist(), packages)
+            self._renderer.fleet_rgb_array(
+                paths[:, step].tolist(), packages,
+                headings=None if turns is None else turns[:, step].tolist(),
+            )
             for step in range(paths.shape[1])
-        ]
+        ]  # fmt: skip
 
     def close(self) -> None:
         """Release the renderer's pygame resources."""
         self._renderer.close()
 
     def state(self) -> np.ndarray:
-        """The global picture: every robot's ``[row, col, package_row, package_col]``."""
-        return np.concatenate([self._cells, self._packages], axis=1).ravel()
+        """The global picture: every robot's ``[row, col, package_row, package_col]`` (and
+        heading, for turning robots)."""
+        return self._observer.state(self._cells, self._packages, self._headings)
 
     # ------------------------------------------------------------------ helpers
-    def _check_room(self) -> None:
-        """Refuse a fleet the floor has no start or package cells for, with the counts."""
-        n = self.num_robots
-        if self.starts_mode == "layout":
-            self._layout_starts_index = self._layout_starts() @ np.array([self.grid.cols, 1])
-        elif len(self._reachable) < 2 * n:
-            raise ValueError(
-                f"{n:,} robots need {2 * n:,} cells a robot can reach (random starts, off the "
-                f"packages); this floor has {len(self._reachable):,}"
-            )
-        if self.lifelong:
-            # A robot that delivers stands on a package cell, the others may too, and
-            # their packages take n - 1 more: its new one needs one cell beyond.
-            needed, room = 2 * n, len(self._targets)
-            where = " (lifelong: one for every robot and every package)"
-        elif self.starts_mode == "layout":
-            needed = n
-            room = int((~np.isin(self._targets, self._layout_starts_index)).sum())
-            where = " away from the starts"
-        else:  # random starts stand off the packages
-            needed, room, where = n, len(self._targets), ""
-        if room < needed:
-            raise ValueError(
-                f"{n:,} robots need {needed:,} package cells{where}; this floor has {room:,}"
-            )
-
-    def _layout_starts(self) -> np.ndarray:
-        """A fleet layout's ``S`` cells; else the floor's start, then the other cells robots
-        can reach in reading order; ``(N, 2)``."""
-        n = self.num_robots
-        marked = self.grid.starts
-        if len(marked) > 1:
-            if len(marked) < n:
-                raise ValueError(
-                    f"{n} robots need {n} start cells; the layout marks {len(marked)} ('S')"
-                )
-            return np.array(marked[:n], dtype=np.int64).reshape(n, 2)
-        start = self.grid.start[0] * self.grid.cols + self.grid.start[1]
-        others = self._reachable[self._reachable != start]
-        if len(others) + 1 < n:
-            raise ValueError(
-                f"{n} robots need {n} start cells; this floor has {len(others) + 1} cells a "
-                "robot can reach"
-            )
-        index = np.concatenate([[start], others[: n - 1]])
-        return np.stack(np.divmod(index, self.grid.cols), axis=1)
-
     def _draw_new_packages(self, robots: np.ndarray) -> None:
-        """New packages for ``robots``, each uniform over the package cells on no robot and
-        no other robot's package (rejection sampling, then an exact draw if it keeps missing).
-
-        The robots draw in order, each one cell at a time. All first draws are made at
-        once; when they all land on free, distinct cells (the usual case) that is what
-        drawing in turn gives, else the generator is put back and the robots draw in turn.
-        """
+        """New packages for ``robots``, as
+        :func:`~warehouse_phys.rules.placement.draw_new_packages` draws them."""
         if not robots.size:
             return
-        cols = self.grid.cols
-        taken = np.zeros(self.grid.rows * cols, dtype=bool)
-        taken[self._here] = True
-        keep = np.ones(self.num_robots, dtype=bool)
-        keep[robots] = False
-        taken[self._package_index[keep]] = True
-        rng = self.np_random
-        before = rng.bit_generator.state
-        cells = self._targets[rng.integers(len(self._targets), size=robots.size)]
-        if not taken[cells].any() and (robots.size == 1 or np.unique(cells).size == robots.size):
-            self._packages[robots, 0], self._packages[robots, 1] = np.divmod(cells, cols)
-            self._package_index[robots] = cells
-            return
-        rng.bit_generator.state = before
-        for robot in robots.tolist():
-            for _ in range(8):
-                cell = self._targets[rng.integers(len(self._targets))]
-                if not taken[cell]:
-                    break
-            else:
-                free = self._targets[~taken[self._targets]]
-                cell = free[rng.integers(len(free))]
-            taken[cell] = True
-            self._packages[robot] = divmod(int(cell), cols)
-            self._package_index[robot] = cell
+        cells = draw_new_packages(self.np_random, self._targets, self.grid.rows * self.grid.cols,
+                                  self._here, self._package_index, robots)  # fmt: skip
+        self._packages[robots, 0], self._packages[robots, 1] = np.divmod(cells, self.grid.cols)
+        self._package_index[robots] = cells
 
     def _live_indices(self) -> np.ndarray:
         if len(self.agents) == self.num_robots:
             return self._every_robot
         return np.fromiter(map(self._index.__getitem__, self.agents), np.int64, len(self.agents))
 
-    def _checked_actions(self, actions: object, live: np.ndarray) -> np.ndarray:
-        """The joint action (WAIT for robots not live), or an error naming the robot."""
-        if not isinstance(actions, dict):
-            raise TypeError(
-                f"actions must be a dict of robot to action, got {type(actions).__name__}"
-            )
-        # The usual case first: every live robot, in order, with a plain integer.
-        if list(actions) == self.agents and set(map(type, actions.values())) <= _INTEGER_TYPES:
-            values = np.fromiter(actions.values(), np.int64, len(actions))
-            if not np.count_nonzero(values.view(np.uint64) >= FLEET_ACTIONS):  # negatives: huge
-                if len(values) == self.num_robots:
-                    return values
-                joint = np.full(self.num_robots, WAIT, dtype=np.int64)
-                joint[live] = values
-                return joint
-        joint = np.full(self.num_robots, WAIT, dtype=np.int64)
-        unknown = [agent for agent in actions if agent not in self.agents]
-        if unknown:
-            raise ValueError(
-                f"actions for robots that are not live: {unknown}; live: {self.agents}"
-            )
-        missing = [agent for agent in self.agents if agent not in actions]
-        if missing:
-            raise ValueError(f"no action for {missing}")
-        for agent, action in actions.items():
-            joint[self._index[agent]] = self._checked_action(agent, action)
-        return joint
-
-    def _checked_action(self, agent: str, action: object) -> int:
-        """``action`` as an int 0..4, or a ``TypeError``/``ValueError`` naming ``agent``."""
-        is_integer = (
-            isinstance(action, (int, np.integer)) and not isinstance(action, np.timedelta64)
-        ) or (isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu")
-        if isinstance(action, (bool, np.bool_)) or not is_integer:
-            raise TypeError(f"{agent}'s action must be an integer 0..4, got {action!r}")
-        if not 0 <= int(action) < FLEET_ACTIONS:
-            raise ValueError(f"{agent}'s action must be 0..4 (4 is WAIT), got {action!r}")
-        return int(action)
-
     def _checked_agent(self, agent: str) -> None:
         if agent not in self._index:
             raise ValueError(f"unknown robot {agent!r}; the robots are {self.possible_agents}")
 
     def _observations(self, live: np.ndarray) -> dict[str, np.ndarray]:
-        if self.observation == "global":
-            state = self.state()
-            return {agent: state.copy() for agent in self.agents}
-        if len(live) == self.num_robots:
-            columns = [self._cells, self._packages]
-        else:
-            columns = [self._cells[live], self._packages[live]]
-        if self.observation == "neighbours":
-            columns.append(self._neighbour_masks(live)[:, None])
-        rows = np.concatenate(columns, axis=1)
-        if self.observation in ("onehot", "neighbours_onehot"):
-            rows = onehot(rows, self.grid.rows, self.grid.cols)
-            if self.observation == "neighbours_onehot":
-                bits = np.arange(len(NEIGHBOUR_BITS))
-                masks = (self._neighbour_masks(live)[:, None] >> bits) & 1
-                rows = np.concatenate([rows, masks.astype(np.float32)], axis=1)
-        return dict(zip(self.agents, rows, strict=True))
-
-    def _neighbour_masks(self, robots: np.ndarray) -> np.ndarray:
-        """The :data:`NEIGHBOUR_BITS` mask of adjacent cells holding a robot on the floor."""
-        cols = self.grid.cols
-        occupied = np.zeros(self.grid.rows * cols + 1, dtype=bool)
-        on = self._cells[self._on_floor]
-        occupied[on[:, 0] * cols + on[:, 1]] = True
-        here = self._cells[robots, 0] * cols + self._cells[robots, 1]
-        table = neighbour_table(self.grid)
-        mask = np.zeros(len(robots), dtype=np.int64)
-        for action, bit in enumerate(NEIGHBOUR_BITS):
-            there = table[here, action]
-            mask |= np.where((there != here) & occupied[there], bit, 0)
-        return mask
+        return self._observer.observe(
+            self.agents, None if len(live) == self.num_robots else live, self._cells,
+            self._packages, self._headings, self._on_floor,
+        )  # fmt: skip
 
     def _infos(
         self,
@@ -728,29 +706,39 @@ class WarehouseFleetEnv(ParallelEnv):
             refused, deliveries = refused[live], self._deliveries[live]
         else:
             deliveries = self._deliveries
-        columns = [optimal.tolist(), refused.tolist(), deliveries.tolist()]
-        if not self.physics:
-            return {
-                agent: {"optimal_steps": o, "refused": r, "deliveries": d}
-                for agent, o, r, d in zip(self.agents, *columns, strict=True)
-            }
-        if snap_errors is None:  # at a reset
-            snap_errors, gaps = np.zeros(self.num_robots), np.full(self.num_robots, np.inf)
-        columns.append(snap_errors[live].astype(float).tolist())
-        if not self.track_gaps:
-            return {
-                agent: {"optimal_steps": o, "refused": r, "deliveries": d, "snap_error": s}
-                for agent, o, r, d, s in zip(self.agents, *columns, strict=True)
-            }
-        columns.append(gaps[live].astype(float).tolist())
-        return {
-            agent: {"optimal_steps": o, "refused": r, "deliveries": d, "snap_error": s,
-                    "min_gap": g}
-            for agent, o, r, d, s, g in zip(self.agents, *columns, strict=True)
-        }  # fmt: skip
+        extra: dict[str, list] = {}
+        if self._errands is not None:
+            extra["tasks"] = self._errands.tasks_per_robot[live].tolist()
+        if self.physics:
+            if snap_errors is None:  # at a reset
+                snap_errors, gaps = np.zeros(self.num_robots), np.full(self.num_robots, np.inf)
+            extra["snap_error"] = snap_errors[live].astype(float).tolist()
+            if self.track_gaps:
+                extra["min_gap"] = gaps[live].astype(float).tolist()
+        return robot_infos(self.agents, optimal.tolist(), refused.tolist(), deliveries.tolist(),
+                           extra)  # fmt: skip
 
     def _package_list(self) -> list[tuple[int, int]]:
         return [tuple(p) for p in self._packages.tolist()]
+
+
+def _instance_of(
+    instance: LorrInstance | str | os.PathLike[str] | None,
+    floor: dict[str, object],
+    starts: str,
+    scheduler: Scheduler | None,
+) -> LorrInstance | None:
+    """``instance`` as a :class:`LorrInstance` (read from its path), with the fleet's
+    floor arguments (``floor``: those given) refused beside it."""
+    if instance is None:
+        if scheduler is not None:
+            raise ValueError("scheduler is for a fleet of an instance (instance=...)")
+        return None
+    given = [name for name, value in floor.items() if value is not None]
+    if given or starts != "auto":
+        names = ", ".join(given + ([] if starts == "auto" else ["starts"]))
+        raise ValueError(f"an instance gives the floor and the starts; do not give {names}")
+    return as_instance(instance)
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:
@@ -766,7 +754,7 @@ class _FleetAEC(parallel_to_aec_wrapper):
     def step(self, action: int | None) -> None:
         agent = self.agent_selection
         if not (self.terminations[agent] or self.truncations[agent]):
-            action = self.env._checked_action(agent, action)
+            action = self.env._actions.one(agent, action)
         super().step(action)
 
 

@@ -13,6 +13,7 @@ single module this package replaces.
 from __future__ import annotations
 
 from warehouse_phys.physics.config import (
+    HEADING_SNAP_BOUND,
     MAX_STEPS_PER_MOVE,
     PENETRATION_TOLERANCE,
     PHYSICS_FIELDS,
@@ -54,6 +55,7 @@ from warehouse_phys.physics.world import (
 __all__ = [
     "CAN_RESTART",
     "COLLISION_SLOP",
+    "HEADING_SNAP_BOUND",
     "MAX_STEPS_PER_MOVE",
     "PENETRATION_TOLERANCE",
     "PHYSICS_FIELDS",

@@ -73,6 +73,13 @@ _SNAP_FIELDS = (
     | pymunk.batch.BodyFields.VELOCITY
     | pymunk.batch.BodyFields.ANGULAR_VELOCITY
 )
+#: Turning robots: the angle too (the buffers hold x, y, angle, vx, vy, spin a body).
+_POSE = POSITION_FIELD | pymunk.batch.BodyFields.ANGLE
+_TURNING_SNAP_FIELDS = _SNAP_FIELDS | pymunk.batch.BodyFields.ANGLE
+#: A quarter turn [rad].
+QUARTER = math.pi / 2
+#: How the heading (quarter turns clockwise from east) moves a forward move's aim.
+_HEADING_DELTAS = np.array([(0, 1), (1, 0), (0, -1), (-1, 0)], dtype=np.int64)
 _BODY_ID = pymunk.batch.BodyFields.BODY_ID
 
 
@@ -96,6 +103,12 @@ class BatchedPhysicsWorld:
             numbered from 0 with none left out. Default: each robot on its own floor.
         record_path: Whether :meth:`move` records every body's position after
             each physics step (see :attr:`last_paths`).
+        headings: ``(N,)`` integers 0..3, for turning robots: each robot's heading
+            (quarter turns clockwise from east, rows growing southwards). Each body
+            then faces its heading and a gear joint turns it
+            (:func:`~warehouse_phys.physics.engine.add_robot`); :meth:`move_turning`
+            drives the turns, and the heading is read from the body's angle and
+            snapped like its position. ``None`` (default): robots that do not turn.
 
     Raises:
         ValueError: if a start is off the floor or on a shelf, two robots on
@@ -110,6 +123,7 @@ class BatchedPhysicsWorld:
         floor_of: np.ndarray | Sequence[int] | None = None,
         *,
         record_path: bool = False,
+        headings: np.ndarray | Sequence[int] | None = None,
     ) -> None:
         starts = np.array(starts, dtype=np.int64).reshape(-1, 2)
         n_robots = len(starts)
@@ -131,6 +145,11 @@ class BatchedPhysicsWorld:
         self._clip_high = np.array([grid.cols, grid.rows], dtype=np.int64)
         self._check_cells(starts, "start")
         self._check_one_per_cell(starts, "start")
+        #: Whether the robots turn (built with ``headings``).
+        self.turning = headings is not None
+        #: ``(N,)`` int64: each turning robot's heading after the last move (zeros if
+        #: the robots do not turn).
+        self.headings = self._checked_headings(headings, n_robots)
 
         size = config.cell_size
         self._size = size
@@ -147,21 +166,27 @@ class BatchedPhysicsWorld:
         self.bodies: list[RobotBodies] = []
         self.cells = starts.copy()
         self._centre_xy = self._centres(starts)
-        for xy in self._centre_xy.tolist():
-            self.bodies.append(add_robot(self.space, config, tuple(xy)))
+        angles = (self.headings * QUARTER).tolist() if self.turning else [None] * n_robots
+        for xy, angle in zip(self._centre_xy.tolist(), angles, strict=True):
+            self.bodies.append(add_robot(self.space, config, tuple(xy), angle))
 
         self._body_ids = self._collect_body_ids()
         # Batched I/O: arrays with a row for every body of the space, in the space's order.
         self._positions_io = pymunk.batch.Buffer()
         self._snap_io = pymunk.batch.Buffer()
+        self._pose_io = pymunk.batch.Buffer()
         self._find_bodies()
         self._path = np.zeros((0, n_robots, 2))
+        self._turn_path = np.zeros((0, n_robots))
         self._move_starts = self.cells
+        #: Each robot's angle before its snap in the last move, off its heading [rad].
+        self.heading_errors = np.zeros(n_robots)
 
     def __getstate__(self) -> dict[str, object]:
         # The batched I/O buffers hold C pointers; a copy or an unpickled world makes its own.
         state = self.__dict__.copy()
-        for name in ("_reader", "_positions_io", "_snap_io", "_positions", "_snap", "_body_ids"):
+        for name in ("_reader", "_positions_io", "_snap_io", "_positions", "_snap", "_body_ids",
+                     "_pose_io", "_pose"):  # fmt: skip
             state.pop(name)
         return state
 
@@ -169,17 +194,26 @@ class BatchedPhysicsWorld:
         self.__dict__.update(state)
         self._positions_io = pymunk.batch.Buffer()
         self._snap_io = pymunk.batch.Buffer()
+        self._pose_io = pymunk.batch.Buffer()
         self._body_ids = self._collect_body_ids()  # a copy's bodies are new C objects
         self._find_bodies()
 
     # ------------------------------------------------------------------ moves
-    def move(self, aims: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def move(
+        self, aims: np.ndarray, turns: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Drive every robot towards the centre of its aim, then snap it.
 
         Args:
             aims: ``(N, 2)`` integers: the cell each robot is driven to, a
                 neighbour of its cell (beyond a wall or in a shelf, if one is
                 there) or its own cell.
+            turns: turning robots only: ``(N,)`` quarter turns each robot makes
+                (-1 counter-clockwise, 0, 1 clockwise). Its control body takes the
+                new angle for the whole move; at the end the heading is read from
+                the body's angle (the nearest quarter turn, also :attr:`headings`;
+                the angle's distance from it is :attr:`heading_errors`) and the body
+                is snapped onto it with its position.
 
         Returns:
             The cell each body ended in (``(N, 2)`` int64, read from its
@@ -194,7 +228,11 @@ class BatchedPhysicsWorld:
         self._move_starts = self.cells
         aims_xy = aims[:, ::-1]  # (col, row): the order of (x, y)
         aim_xy = (aims_xy + 0.5) * size + origin
-        self._write_positions(self._centre_xy, aim_xy)
+        if self.turning:
+            turns = np.zeros(self.n_robots, dtype=np.int64) if turns is None else turns
+            self._write_poses(aim_xy, (self.headings + turns) * QUARTER)
+        else:
+            self._write_positions(self._centre_xy, aim_xy)
         xy = self._advance(self._drive_steps, 0)
         settle_on = np.floor((xy - origin) / size).astype(np.int64)
         off_aim = (settle_on != aims_xy).any(axis=1)
@@ -221,7 +259,11 @@ class BatchedPhysicsWorld:
         # The one teleport: every body onto its centre, at rest, with its aim on it too
         # (the snap array's velocities are always zero).
         self._snap[self._body_rows, :2] = np.concatenate((centre_xy, centre_xy))
-        pymunk.batch.set_space_bodies(self.space, _SNAP_FIELDS, self._snap_io)
+        if self.turning:  # and onto its heading, its aim's angle too
+            self._snap_headings()
+            pymunk.batch.set_space_bodies(self.space, _TURNING_SNAP_FIELDS, self._snap_io)
+        else:
+            pymunk.batch.set_space_bodies(self.space, _SNAP_FIELDS, self._snap_io)
         self.cells = cells = cells_xy[:, ::-1]
         self._centre_xy = centre_xy
         return cells, snap_error
@@ -250,13 +292,45 @@ class BatchedPhysicsWorld:
         aims[hold] = cells[hold]
         return self.move(aims)
 
+    def move_turning(
+        self, ends: np.ndarray, headings: np.ndarray, bumped: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`move` for a joint step of turning robots, as the traffic rule granted it
+        (:func:`~warehouse_phys.rules.headings.turning_moves`).
+
+        Args:
+            ends: ``(N, 2)`` the cell each robot ends on under the rule.
+            headings: ``(N,)`` each robot's heading after the step.
+            bumped: ``(N,)`` whether the floor refused the robot's forward move.
+
+        A robot whose cell changes drives there; a robot whose forward move the floor
+        refused drives towards the wall or shelf ahead and back; a robot whose heading
+        changes turns a quarter in place; every other robot holds its pose.
+
+        Returns:
+            The cell each body ended on, the heading read from each body (both as
+            the rule's, the tests prove) and the snap error [cells].
+        """
+        aims = np.array(ends, dtype=np.int64).reshape(-1, 2)
+        aims[bumped] = self.cells[bumped] + _HEADING_DELTAS[self.headings[bumped]]
+        change = (np.asarray(headings, dtype=np.int64) - self.headings) % 4
+        turns = np.where(change == 3, -1, change)
+        cells, snap_error = self.move(aims, turns)
+        return cells, self.headings.copy(), snap_error
+
     def closest_gaps(self) -> np.ndarray:
         """Each robot's smallest gap to another's disc during the last move [cells]:
         :meth:`closest_approach` less the robots' diameter (negative: they overlapped)."""
         return self.closest_approach() - self.config.robot_diameter
 
-    def restart(self, robots: np.ndarray | Sequence[int], starts: np.ndarray) -> None:
-        """Make the given robots as newly built, at rest on ``starts`` (``(k, 2)``).
+    def restart(
+        self,
+        robots: np.ndarray | Sequence[int],
+        starts: np.ndarray,
+        headings: np.ndarray | Sequence[int] | None = None,
+    ) -> None:
+        """Make the given robots as newly built, at rest on ``starts`` (``(k, 2)``),
+        turning robots facing ``headings`` (``(k,)``, default east).
 
         Each robot's disc leaves the space with its cached contacts and comes
         back, its body gets a new body's state and a new joint replaces the old
@@ -283,8 +357,15 @@ class BatchedPhysicsWorld:
         if self.n_floors < self.n_robots:  # robots share floors: one per cell
             self._check_one_per_cell(cells, "start")
         centre_xy = self._centres(starts, robots)
-        for robot, xy in zip(robots.tolist(), centre_xy.tolist(), strict=True):
-            self.bodies[robot] = renew_robot(self.space, self.config, self.bodies[robot], xy)
+        if self.turning:
+            turned = self._checked_headings(headings, len(robots))
+            self.headings = self.headings.copy()
+            self.headings[robots] = turned
+        angles = (
+            (self.headings[robots] * QUARTER).tolist() if self.turning else [None] * len(robots)
+        )
+        for robot, xy, angle in zip(robots.tolist(), centre_xy.tolist(), angles, strict=True):
+            self.bodies[robot] = renew_robot(self.space, self.config, self.bodies[robot], xy, angle)
         everyone = len(robots) == self.n_robots and (np.sort(robots) == np.arange(len(robots)))
         if CAN_RESTART and np.all(everyone):
             # Every robot anew: the space's next step is a first. (Without pymunk's
@@ -298,11 +379,32 @@ class BatchedPhysicsWorld:
         self._centre_xy[robots] = centre_xy
         if self.record_path and len(self._path):
             self._path[:, robots] = centre_xy
+            if self.turning:
+                self._turn_path[:, robots] = self.headings[robots] * QUARTER
 
     # ------------------------------------------------------------------ reading
     def positions(self) -> np.ndarray:
         """Every robot's position now, ``(N, 2)`` of ``(row, col)`` in cell units on its floor."""
         return self._to_cells(self._read_robots())
+
+    def orientations(self) -> np.ndarray:
+        """Every turning robot's angle now, ``(N,)`` in quarter turns clockwise from east
+        (whole numbers are headings; between them while it turns)."""
+        if not self.turning:
+            raise RuntimeError("these robots do not turn; build the world with headings")
+        return self._reader.read(self.space)[self._robot_rows, 2] / QUARTER
+
+    @property
+    def last_orientations(self) -> np.ndarray:
+        """Every turning robot's angle after each physics step of the last move, before
+        the snap: ``(N, steps_per_move)`` quarter turns (see :meth:`orientations`).
+
+        Raises:
+            RuntimeError: if the world does not record paths or the robots do not turn.
+        """
+        if not (self.record_path and self.turning):
+            raise RuntimeError("only a world of turning robots that records paths has them")
+        return (self._turn_path / QUARTER).T.copy()
 
     @property
     def last_paths(self) -> np.ndarray:
@@ -375,6 +477,15 @@ class BatchedPhysicsWorld:
         if first == 0:
             self._path = np.empty((self.config.steps_per_move, self.n_robots, 2))
         path, read, space, rows = self._path, self._reader.read, self.space, self._robot_rows
+        if self.turning:
+            if first == 0:
+                self._turn_path = np.empty((self.config.steps_per_move, self.n_robots))
+            turn_path = self._turn_path
+            for index in range(first, first + steps):
+                step(handle, dt)
+                pose = read(space)[rows]
+                path[index], turn_path[index] = pose[:, :2], pose[:, 2]
+            return path[first + steps - 1].copy()
         for index in range(first, first + steps):
             step(handle, dt)
             read(space).take(rows, axis=0, out=path[index])  # the robots' rows, in place
@@ -382,7 +493,42 @@ class BatchedPhysicsWorld:
 
     def _read_robots(self) -> np.ndarray:
         """Every robot's ``(x, y)`` [m], in robot order, with one batched read."""
-        return self._reader.read(self.space)[self._robot_rows]  # fancy indexing: a copy
+        return self._reader.read(self.space)[self._robot_rows, :2]  # fancy indexing: a copy
+
+    def _write_poses(self, control_xy: np.ndarray, control_angles: np.ndarray) -> None:
+        """Turning robots: place every control body and turn it to ``control_angles``
+        [rad], with one batched write; every robot is written as it stands, at rest on
+        its centre and heading (a move starts from the last snap)."""
+        pose = self._pose
+        pose[self._robot_rows, :2] = self._centre_xy
+        pose[self._robot_rows, 2] = self.headings * QUARTER
+        pose[self._control_rows, :2] = control_xy
+        pose[self._control_rows, 2] = control_angles
+        pymunk.batch.set_space_bodies(self.space, _POSE, self._pose_io)
+
+    def _snap_headings(self) -> None:
+        """Read each turning robot's heading from its body's angle (the nearest quarter
+        turn), note how far it was off, and put both the body and its control body on it
+        in the snap array."""
+        angles = self._reader.read(self.space)[self._robot_rows, 2]
+        quarters = np.rint(angles / QUARTER)
+        if not np.isfinite(angles).all():
+            robot = int(np.flatnonzero(~np.isfinite(angles))[0])
+            raise RuntimeError(f"robot {robot}'s angle became {angles[robot]!r}")
+        self.heading_errors = np.abs(angles - quarters * QUARTER)
+        self.headings = quarters.astype(np.int64) % 4
+        snapped = self.headings * QUARTER
+        self._snap[self._body_rows, 2] = np.concatenate((snapped, snapped))
+
+    @staticmethod
+    def _checked_headings(headings: object, n: int) -> np.ndarray:
+        """``headings`` as ``(n,)`` int64 in 0..3 (zeros for ``None``), or a ``ValueError``."""
+        if headings is None:
+            return np.zeros(n, dtype=np.int64)
+        array = np.asarray(headings)
+        if array.shape != (n,) or array.dtype.kind not in "iu" or ((array < 0) | (array > 3)).any():
+            raise ValueError(f"headings must be {n} integers 0..3, got {headings!r}")
+        return array.astype(np.int64)
 
     def _write_positions(self, robot_xy: np.ndarray, control_xy: np.ndarray) -> None:
         """Place every robot and every control body [m], with one batched write.
@@ -425,10 +571,18 @@ class BatchedPhysicsWorld:
         self._body_rows = where  # robots, then their control bodies
         self._positions = every_xy.copy()  # the rows of other bodies keep their positions
         self._positions_io.set_float_buf(self._positions)
-        self._reader = PositionReader(len(in_space))
-        self._snap = np.zeros((len(in_space), 5))  # x, y, vx, vy, angular velocity
+        self._reader = PositionReader(len(in_space), angles=self.turning)
+        # x, y, (angle,) vx, vy, angular velocity: the snap's velocities are zero
+        self._snap = np.zeros((len(in_space), 6 if self.turning else 5))
         self._snap[:, :2] = every_xy
         self._snap_io.set_float_buf(self._snap)
+        self._pose = np.zeros((len(in_space), 3))  # x, y, angle
+        if self.turning:
+            pose_buffer = pymunk.batch.Buffer()
+            pymunk.batch.get_space_bodies(self.space, _POSE, pose_buffer)
+            self._pose[:] = np.frombuffer(pose_buffer.float_buf(), dtype=np.float64).reshape(-1, 3)
+            self._snap[:, 2] = self._pose[:, 2]
+        self._pose_io.set_float_buf(self._pose)
 
     def _centres(self, cells: np.ndarray, robots: np.ndarray | None = None) -> np.ndarray:
         """The centres ``(x, y)`` [m] of ``cells`` (``(k, 2)`` row, col) on the floors of

@@ -19,6 +19,11 @@ import numpy as np
 SNAP_ERROR_BOUND = 0.02
 
 
+#: Largest angle between a turning robot's body and the heading it is snapped to at the
+#: end of a move, that the turning fleet promises for every move [rad] (about 1.1 degrees).
+HEADING_SNAP_BOUND = 0.02
+
+
 #: Deepest the robot's disc may go into a wall or a shelf at any physics step [cells]:
 #: as far as the default robot travels in one step. Contacts are solved after the
 #: overlap they resolve, so a bump always sinks in a little: the defaults reach 0.024,

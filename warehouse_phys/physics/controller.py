@@ -11,9 +11,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from warehouse_phys.physics.config import PENETRATION_TOLERANCE, SNAP_ERROR_BOUND, PhysicsConfig
+from warehouse_phys.physics.config import (
+    HEADING_SNAP_BOUND,
+    PENETRATION_TOLERANCE,
+    SNAP_ERROR_BOUND,
+    PhysicsConfig,
+)
 from warehouse_phys.physics.world import PhysicsWorld
 from warehouse_phys.rules.grid import ACTION_DELTAS, Action, Cell, WarehouseGrid
+from warehouse_phys.rules.headings import HEADING_MOVES, TurnAction, turning_moves
 
 
 def speed_profile(
@@ -120,8 +126,17 @@ def _motion(start: Cell, action: int, free: bool, path: np.ndarray) -> Controlle
     return ControllerMotion(0.0, max(float(-along.min(initial=0.0)), 0.0), drift)
 
 
+#: (start, heading, actions) of each turning robot's probe: turns both ways and round,
+#: forward moves after turns, a bump after a turn, turns beside a wall and a shelf.
+_TURN_PROBES: tuple[tuple[Cell, int, tuple[int, ...]], ...] = (
+    (Cell(2, 2), 0, (1, 1, 1, 1, 2, 2, 2, 2, 1, 0, 2, 2, 0, 0, 1, 1, 0, 3, 2, 0)),
+    (Cell(0, 0), 0, (2, 0, 2, 0, 1, 1, 0, 0, 1, 2, 0, 3)),
+    (Cell(2, 1), 0, (0, 1, 0, 2, 2, 0, 1, 0)),
+)
+
+
 @functools.cache
-def check_controller(config: PhysicsConfig) -> ControllerMotion:
+def check_controller(config: PhysicsConfig, *, turning: bool = False) -> ControllerMotion:
     """Refuse a configuration whose moves could break a promise of the environments;
     measure how far beyond its aims the controller carries the robot.
 
@@ -135,6 +150,13 @@ def check_controller(config: PhysicsConfig) -> ControllerMotion:
     disc must never go deeper than :data:`PENETRATION_TOLERANCE` into a wall or
     shelf. The environments call this when they are built; the answer for a
     configuration is cached.
+
+    With ``turning=True`` (a fleet of turning robots) it also tries turning robots
+    (see ``_TURN_PROBES``): quarter turns both ways, full rounds, forward moves and a
+    bump after turns, turns beside walls and a shelf. Each must end on the cell and
+    heading the rules give, the angle within half of :data:`HEADING_SNAP_BOUND` of the
+    heading; a turning robot's centre must stay put, and how far it moves counts as
+    sideways drift.
 
     Returns:
         The largest overshoots and sideways drift of the moves tried
@@ -181,4 +203,56 @@ def check_controller(config: PhysicsConfig) -> ControllerMotion:
             bump_overshoot = max(bump_overshoot, motion.bump_overshoot)
             drift = max(drift, motion.drift)
             cell = expected
-    return ControllerMotion(overshoot, bump_overshoot, drift)
+    found = ControllerMotion(overshoot, bump_overshoot, drift)
+    if turning:
+        found = ControllerMotion(
+            *(float(x) + 0.0 for x in np.maximum(found, _turning_motion(config, advice)))
+        )
+    return found
+
+
+def _turning_motion(config: PhysicsConfig, advice: str) -> ControllerMotion:
+    """The :class:`ControllerMotion` of the turning robot's probes, or the ``ValueError``
+    of the first move that breaks a promise."""
+    from warehouse_phys.physics.batched import BatchedPhysicsWorld
+
+    radius = config.robot_radius / config.cell_size
+    found = np.zeros(3)
+    cols = _PROBE_FLOOR.cols
+    for start, heading, actions in _TURN_PROBES:
+        world = BatchedPhysicsWorld(_PROBE_FLOOR, config, [start], record_path=True,
+                                    headings=[heading])  # fmt: skip
+        here, facing = np.array([start.row * cols + start.col]), np.array([heading])
+        for action in actions:
+            grants = turning_moves(_PROBE_FLOOR, here, facing, np.array([action]), None)
+            name = f"{TurnAction(action).name} from {divmod(int(here[0]), cols)} facing {facing[0]}"
+            ends = np.stack(np.divmod(grants.ends, cols), axis=1)
+            try:
+                cells, headings, snap = world.move_turning(ends, grants.headings, grants.bumped)
+            except RuntimeError as error:
+                raise ValueError(f"with these settings {name} fails: {error}; {advice}") from None
+            path = world.last_paths[0]
+            depth = float(penetration(_PROBE_FLOOR, radius, path).max())
+            wrong = (cells != ends).any() or headings[0] != grants.headings[0]
+            if wrong or depth > PENETRATION_TOLERANCE or not snap[0] < SNAP_ERROR_BOUND / 2:
+                raise ValueError(
+                    f"with these settings a turning robot's {name} ends on "
+                    f"{tuple(cells[0].tolist())} facing {headings[0]} (the rules: "
+                    f"{tuple(ends[0].tolist())} facing {grants.headings[0]}), "
+                    f"{snap[0]:.3g} cells from the centre, {depth:.3g} cells into a wall; {advice}"
+                )
+            if not world.heading_errors[0] < HEADING_SNAP_BOUND / 2:
+                raise ValueError(
+                    f"with these settings a turning robot's {name} ends "
+                    f"{world.heading_errors[0]:.3g} rad off its heading, not within half the "
+                    f"bound of {HEADING_SNAP_BOUND}; {advice}"
+                )
+            origin = divmod(int(here[0]), cols)
+            if action == TurnAction.FORWARD:
+                move = int(HEADING_MOVES[facing[0]])
+                motion = _motion(Cell(*origin), move, bool(grants.ends[0] != here[0]), path)
+            else:  # a turn or a wait: the centre should not move; any motion is drift
+                motion = ControllerMotion(0.0, 0.0, float(np.abs(path - origin).max()))
+            found = np.maximum(found, motion)
+            here, facing = grants.ends, grants.headings
+    return ControllerMotion(*found.tolist())

@@ -43,6 +43,9 @@ class RobotBodies(NamedTuple):
     control: pymunk.Body
     #: The pivot joint that pulls the robot to ``control`` with capped force and speed.
     joint: pymunk.PivotJoint
+    #: A turning robot's gear joint, which turns it to ``control``'s angle with capped
+    #: torque and spin; ``None`` for a robot that does not turn.
+    gear: pymunk.GearJoint | None = None
 
 
 def new_space(config: PhysicsConfig) -> pymunk.Space:
@@ -71,10 +74,14 @@ def add_floor(
 
 
 def add_robot(
-    space: pymunk.Space, config: PhysicsConfig, position: tuple[float, float]
+    space: pymunk.Space,
+    config: PhysicsConfig,
+    position: tuple[float, float],
+    angle: float | None = None,
 ) -> RobotBodies:
     """Add a robot at rest on ``position`` ``(x, y)`` [m], and its controller aimed
-    there, to ``space``."""
+    there, to ``space``; a turning robot (``angle`` [rad], clockwise from east as rows
+    grow downwards) also gets a gear joint that holds it at its control body's angle."""
     robot = pymunk.Body()
     shape = pymunk.Circle(robot, config.robot_radius)
     shape.mass = config.robot_mass  # pymunk derives the moment of a uniform disc
@@ -89,13 +96,23 @@ def add_robot(
     control.position = robot.position
     joint = _new_joint(control, robot, config)
     space.add(control, joint)
-    return RobotBodies(robot, shape, control, joint)
+    if angle is None:
+        return RobotBodies(robot, shape, control, joint)
+    robot.angle = control.angle = angle
+    gear = _new_gear(control, robot, config)
+    space.add(gear)
+    return RobotBodies(robot, shape, control, joint, gear)
 
 
 def renew_robot(
-    space: pymunk.Space, config: PhysicsConfig, bodies: RobotBodies, position: tuple[float, float]
+    space: pymunk.Space,
+    config: PhysicsConfig,
+    bodies: RobotBodies,
+    position: tuple[float, float],
+    angle: float | None = None,
 ) -> RobotBodies:
-    """Make ``bodies`` a robot as :func:`add_robot` builds it, at rest on ``position`` [m].
+    """Make ``bodies`` a robot as :func:`add_robot` builds it, at rest on ``position`` [m]
+    (a turning robot facing ``angle`` [rad], with a new gear joint).
 
     Everything that carries state from one physics step to the next is reset
     or replaced: the disc leaves the space and comes back, dropping its cached
@@ -107,11 +124,18 @@ def renew_robot(
     built one. Returns the robot with its new joint.
     """
     space.remove(bodies.joint, bodies.shape)
+    if bodies.gear is not None:
+        space.remove(bodies.gear)
     reset_body(bodies.robot, position)
     set_position(bodies.control, position)
     joint = _new_joint(bodies.control, bodies.robot, config)
     space.add(bodies.shape, joint)
-    return bodies._replace(joint=joint)
+    if bodies.gear is None or angle is None:
+        return bodies._replace(joint=joint)
+    bodies.robot.angle = bodies.control.angle = angle
+    gear = _new_gear(bodies.control, bodies.robot, config)
+    space.add(gear)
+    return bodies._replace(joint=joint, gear=gear)
 
 
 def _new_joint(
@@ -124,6 +148,18 @@ def _new_joint(
     joint.error_bias = math.exp(-config.gain)
     joint.collide_bodies = False
     return joint
+
+
+def _new_gear(control: pymunk.Body, robot: pymunk.Body, config: PhysicsConfig) -> pymunk.GearJoint:
+    """A turning robot's gear joint: turns ``robot`` to ``control``'s angle with the pivot
+    joint's limits at the disc's rim (torque ``max_force x radius``, spin
+    ``max_speed / radius``) and its gain."""
+    gear = pymunk.GearJoint(control, robot, 0.0, 1.0)
+    gear.max_force = config.max_force * config.robot_radius  # [N m]
+    gear.max_bias = config.max_speed / config.robot_radius  # [rad/s]
+    gear.error_bias = math.exp(-config.gain)
+    gear.collide_bodies = False
+    return gear
 
 
 def space_stepping(space: pymunk.Space) -> tuple[Callable[[Any, float], None], Any]:
@@ -255,17 +291,21 @@ class PositionReader:
     :func:`pymunk.batch.get_space_bodies`.
     """
 
-    def __init__(self, n_bodies: int) -> None:
+    def __init__(self, n_bodies: int, *, angles: bool = False) -> None:
         self.n_bodies = n_bodies
-        self._floats = np.zeros(2 * n_bodies + 4)
+        #: Numbers read per body: ``x, y``, and the angle with ``angles=True``.
+        self.width = width = 3 if angles else 2
+        fields = POSITION_FIELD | pymunk.batch.BodyFields.ANGLE if angles else POSITION_FIELD
+        self._fields = fields
+        self._floats = np.zeros(width * n_bodies + 4)
         self._buffer = pymunk.batch.Buffer()
         self._buffer.set_float_buf(self._floats)
-        self._positions = self._floats[: 2 * n_bodies].reshape(n_bodies, 2)
+        self._positions = self._floats[: width * n_bodies].reshape(n_bodies, width)
         try:
             from pymunk._chipmunk import ffi, lib
 
             data = ffi.new("pmBatchedData *")
-            data.fields = POSITION_FIELD.value
+            data.fields = fields.value
             data.floatArray = self._buffer._float_arr
             data.intArray = self._buffer._int_arr
             iterate = ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
@@ -274,18 +314,20 @@ class PositionReader:
             self._call = None
 
     def read(self, space: pymunk.Space) -> np.ndarray:
-        """``(bodies, 2)`` positions ``(x, y)`` [m] in the space's order: a view, valid
-        until the next read."""
+        """``(bodies, 2)`` positions ``(x, y)`` [m] in the space's order (``(bodies, 3)``
+        with the angle [rad] after them, for a reader of angles): a view, valid until the
+        next read."""
+        width = self.width
         if self._call is None:  # pragma: no cover - pymunk internals moved
             buffer = pymunk.batch.Buffer()
-            pymunk.batch.get_space_bodies(space, POSITION_FIELD, buffer)
-            return np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 2)
+            pymunk.batch.get_space_bodies(space, self._fields, buffer)
+            return np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, width)
         each_body, iterate, data = self._call
         floats = self._buffer._float_arr
         floats.num = 0
         each_body(space._space, iterate, data)
-        if floats.num != 2 * self.n_bodies:  # pragma: no cover - a body was added
-            raise RuntimeError(f"the space holds {floats.num // 2} bodies, not {self.n_bodies}")
+        if floats.num != width * self.n_bodies:  # pragma: no cover - a body was added
+            raise RuntimeError(f"the space holds {floats.num // width} bodies, not {self.n_bodies}")
         return self._positions
 
 

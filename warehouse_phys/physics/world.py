@@ -128,7 +128,7 @@ class PhysicsWorld:
     def _add_robot(self, start: tuple[int, int]) -> None:
         """Add the robot at rest on ``start``, and its controller, to the space."""
         bodies = add_robot(self.space, self.config, self.centre(start))
-        self.robot, self.robot_shape, self.control, self.joint = bodies
+        self.robot, self.robot_shape, self.control, self.joint, _ = bodies
         self.cell = Cell(int(start[0]), int(start[1]))
 
     def centre(self, cell: tuple[int, int]) -> tuple[float, float]:

@@ -1,0 +1,65 @@
+"""A fleet's actions checked: the joint action of a step, or one robot's (the AEC form).
+
+:class:`FleetActions` turns the dict a PettingZoo ``step`` receives into the joint action
+array of the traffic rule, refusing anything else with a ``TypeError``/``ValueError``
+that names the robot, before anything changes. The usual case (every live robot, in
+order, with a plain integer) costs one array conversion.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_INTEGER_TYPES = frozenset({int, np.int64, np.int32, np.int16, np.int8, np.uint8,
+                            np.uint16, np.uint32, np.uint64})  # fmt: skip
+
+
+class FleetActions:
+    """The actions of ``num_robots`` robots, each ``0..count - 1`` (the last is WAIT,
+    given to robots that are not live)."""
+
+    def __init__(self, num_robots: int, count: int, index: dict[str, int]) -> None:
+        self.num_robots = num_robots
+        self.count = count
+        #: WAIT is the last action of both move models.
+        self.wait = count - 1
+        self._index = index
+
+    def joint(self, actions: object, agents: list[str], live: np.ndarray) -> np.ndarray:
+        """The joint action (WAIT for robots not live), or an error naming the robot."""
+        if not isinstance(actions, dict):
+            raise TypeError(
+                f"actions must be a dict of robot to action, got {type(actions).__name__}"
+            )
+        # The usual case first: every live robot, in order, with a plain integer.
+        if list(actions) == agents and set(map(type, actions.values())) <= _INTEGER_TYPES:
+            values = np.fromiter(actions.values(), np.int64, len(actions))
+            if not np.count_nonzero(values.view(np.uint64) >= self.count):  # negatives: huge
+                if len(values) == self.num_robots:
+                    return values
+                joint = np.full(self.num_robots, self.wait, dtype=np.int64)
+                joint[live] = values
+                return joint
+        joint = np.full(self.num_robots, self.wait, dtype=np.int64)
+        unknown = [agent for agent in actions if agent not in agents]
+        if unknown:
+            raise ValueError(f"actions for robots that are not live: {unknown}; live: {agents}")
+        missing = [agent for agent in agents if agent not in actions]
+        if missing:
+            raise ValueError(f"no action for {missing}")
+        for agent, action in actions.items():
+            joint[self._index[agent]] = self.one(agent, action)
+        return joint
+
+    def one(self, agent: str, action: object) -> int:
+        """``action`` as an int of the action space, or a ``TypeError``/``ValueError``
+        naming ``agent``."""
+        is_integer = (
+            isinstance(action, (int, np.integer)) and not isinstance(action, np.timedelta64)
+        ) or (isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu")
+        top = self.wait
+        if isinstance(action, (bool, np.bool_)) or not is_integer:
+            raise TypeError(f"{agent}'s action must be an integer 0..{top}, got {action!r}")
+        if not 0 <= int(action) < self.count:
+            raise ValueError(f"{agent}'s action must be 0..{top} ({top} is WAIT), got {action!r}")
+        return int(action)
