@@ -293,3 +293,74 @@ def test_two_robots_pass_each_other_out_of_a_pocket_left_by_parked_robots(corner
         assert not refused.any()
         arrived |= (cells[:2] == goals[:2]).all(axis=1)
     assert arrived.all()
+
+
+# ------------------------------------------------------------------ turning robots
+@given(
+    rows=st.integers(2, 7),
+    cols=st.integers(2, 7),
+    shelf_bits=st.integers(0, 2**49 - 1),
+    robots=st.integers(1, 12),
+    seed=st.integers(0, 2**16),
+    corner_follows=st.booleans(),
+    lifelong=st.booleans(),
+)
+def test_traffic_grants_every_plan_of_turning_robots_on_any_floor(
+    rows, cols, shelf_bits, robots, seed, corner_follows, lifelong
+):
+    cells = [["#" if (shelf_bits >> (r * 7 + c)) & 1 and (r + c) % 3 else "."
+              for c in range(cols)] for r in range(rows)]  # fmt: skip
+    cells[0][0] = "S"
+    try:
+        env = fleet.parallel_env(
+            num_robots=robots, layout=["".join(row) for row in cells], starts="random",
+            on_delivery="new_package" if lifelong else "park", max_cycles=40, moves="rotate",
+            **({} if corner_follows else BIG_ROBOT),
+        )  # fmt: skip
+    except ValueError:  # too small for the fleet
+        return
+    assert run(env, pibt_policy(seed), seed, 40) == 0
+
+
+def test_turning_robots_keep_the_kiva_warehouse_moving_and_never_strand_a_robot():
+    """Lifelong, 256 steps, 192 turning robots: every robot delivers (no deadlock), no
+    move is refused, and the fleet delivers well above half the four-direction one's
+    rate less the turns (``benchmarks/lorr.py`` has the full figures)."""
+    env = fleet.parallel_env(num_robots=192, layout="warehouse", lifelong=True,
+                             max_cycles=256, moves="rotate")  # fmt: skip
+    result = evaluate_throughput(env, pibt_policy(0), steps=256, seeds=range(1))
+    assert result.refused == 0
+    assert result.throughput >= 2.5
+    assert (env.deliveries > 0).all()
+
+
+def turning_plans_digest(seed):
+    env = fleet.parallel_env(num_robots=60, layout="warehouse", lifelong=True, max_cycles=50,
+                             moves="rotate")  # fmt: skip
+    policy = pibt_policy(seed)
+    observations, infos = env.reset(seed=seed)
+    digest = hashlib.sha256()
+    for _ in range(50):
+        actions = policy(env, observations, infos)
+        digest.update(np.array([actions[a] for a in env.possible_agents]).tobytes())
+        observations, _, _, _, infos = env.step(actions)
+    return digest.hexdigest()
+
+
+def test_turning_plans_are_bit_identical_across_processes(run_python):
+    here = turning_plans_digest(3)
+    script = "from tests.rules.test_planning import turning_plans_digest as d; print(d(3))"
+    assert run_python(script).strip() == here
+
+
+def test_a_turning_planner_needs_headings_and_answers_a_request():
+    grid = WarehouseGrid(3, 4)
+    planner = PIBT(grid, seed=0, moves="rotate")
+    with pytest.raises(ValueError, match="turning robots need one heading each"):
+        planner.plan(np.array([[0, 0]]), np.array([[2, 3]]))
+    # A person asks robot 0 to turn clockwise; robot 1, in robot 0's way east, is pushed on.
+    actions = planner.plan(np.array([[0, 0], [0, 1]]), np.array([[2, 3], [0, 3]]),
+                           headings=np.array([0, 0]), requests={0: 1})  # fmt: skip
+    assert actions.tolist() == [1, 0]
+    with pytest.raises(ValueError, match="moves must be one of"):
+        PIBT(grid, moves="hop")

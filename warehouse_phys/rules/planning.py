@@ -31,6 +31,15 @@ import numpy as np
 
 from warehouse_phys.rules.distances import DistanceMaps
 from warehouse_phys.rules.grid import ACTION_DELTAS, WarehouseGrid
+from warehouse_phys.rules.headings import (
+    HEADING_MOVES,
+    MOVE_HEADINGS,
+    MOVE_MODELS,
+    TurnAction,
+    quarter_turns,
+    turn_towards,
+    turning_moves,
+)
 from warehouse_phys.rules.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 
 if TYPE_CHECKING:
@@ -88,6 +97,21 @@ class PIBT:
     heuristic: it resolves a robot blocking another against a wall, not every
     standoff; the swap operation is not made there).
 
+    **Turning robots** (``moves="rotate"``, :mod:`warehouse_phys.rules.headings`): PIBT
+    over ``(cell, heading)``. A robot's candidates are the cell ahead (a forward move)
+    and its own cell (a turn or a wait), ranked by the turn-aware distance of the state
+    each leads to: ``h(cell, heading)``, the fewest turns to face a neighbour plus one
+    move plus that neighbour's distance to the goal (0 on the goal), from the same
+    distance maps; ties go to the forward move. The recursion is PIBT's own
+    (:meth:`_pibt`): a robot in the way inherits the priority and must drive forward out
+    of it, or the planner backtracks. A robot that stays turns towards its best
+    neighbour, unless it stands in the way of a robot of higher priority that wanted its
+    cell: then it turns towards the free neighbour nearest its own goal, so that the
+    next step it can be pushed on (priority inheritance over the steps a turn takes).
+    The swap operation is not made (it would pull a robot backwards). Every plan passes
+    the traffic rule before it is returned, so it is granted in full; PIBT's
+    reachability guarantee is not claimed for turning robots.
+
     Args:
         grid: The floor.
         distances: Distance maps of the floor (a fleet's ``env.distances``, shared so
@@ -95,6 +119,8 @@ class PIBT:
         corner_follows: Whether traffic grants corner follows (the fleet's
             ``corner_follows``).
         seed: Seeds the tie-breaks; the same seed and inputs give the same plans.
+        moves: ``"grid"`` (four directions, default) or ``"rotate"`` (turning robots,
+            whose :meth:`plan` takes their ``headings`` and returns turning actions).
     """
 
     def __init__(
@@ -104,10 +130,19 @@ class PIBT:
         distances: DistanceMaps | None = None,
         corner_follows: bool = True,
         seed: int = 0,
+        moves: str = "grid",
     ) -> None:
+        if moves not in MOVE_MODELS:
+            raise ValueError(f"moves must be one of {list(MOVE_MODELS)}, got {moves!r}")
         self.grid = grid
         self.distances = DistanceMaps(grid) if distances is None else distances
         self.corner_follows = bool(corner_follows)
+        #: Whether the robots turn and drive forward (``moves="rotate"``).
+        self.turning = moves == "rotate"
+        #: Turning robots: the cell each is turning towards (:data:`NIL`: none), and the
+        #: goal it was chosen for.
+        self._committed = np.empty(0, dtype=np.int64)
+        self._committed_goal = np.empty(0, dtype=np.int64)
         self.rng = np.random.default_rng(seed)
         self._table = neighbour_table(grid)
         cols = grid.cols
@@ -136,9 +171,12 @@ class PIBT:
         present: np.ndarray | None = None,
         *,
         requests: dict[int, int] | None = None,
+        headings: np.ndarray | None = None,
     ) -> np.ndarray:
         """The next joint action: ``(N,)`` int64 in 0..4, from each robot's ``(row, col)``
         ``cells`` and ``goals`` (``(N, 2)``); ``movable`` and ``present`` default to all.
+        Turning robots: their ``headings`` (``(N,)`` 0..3) too, and actions 0..3
+        (:class:`~warehouse_phys.rules.headings.TurnAction`).
 
         ``requests`` maps robots to the action someone else chose for them (a person at
         the keyboard): they plan first, with that move as their only candidate, so the
@@ -147,7 +185,7 @@ class PIBT:
 
         Raises:
             ValueError: if the number of robots changes between calls (start a new
-                :class:`PIBT` for a new fleet).
+                :class:`PIBT` for a new fleet), or turning robots come without headings.
         """
         cols = self.grid.cols
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
@@ -157,13 +195,19 @@ class PIBT:
         goal = goals[:, 0] * cols + goals[:, 1]
         present = np.ones(n, dtype=bool) if present is None else np.asarray(present, bool)
         movable = present.copy() if movable is None else np.asarray(movable, bool) & present
+        if self.turning:
+            if headings is None or np.shape(headings) != (n,):
+                raise ValueError(f"turning robots need one heading each ({n}), got {headings!r}")
+            headings = np.asarray(headings, dtype=np.int64)
         self._update_priorities(here, goal)
         distances = self._distances_round(np.sort(here[present & ~movable]))
 
         self._goal_list = goal.tolist()
         self._plain = np.isin(goal, self._held) if self._held.size else np.ones(n, dtype=bool)
         moving = np.flatnonzero(movable)
-        ranked_of = self._ranked_candidates(here, goal, moving, present, distances)
+        if self.turning:
+            self._commitments(here, goal, movable)
+        ranked_of = self._ranked_candidates(here, goal, moving, present, distances, headings)
 
         here_list = here.tolist()
         plan = [NIL] * n
@@ -177,14 +221,27 @@ class PIBT:
             occupied_next[here_list[i]] = i
         requested = {i: a for i, a in (requests or {}).items() if movable[i]}
         for i, action in requested.items():
-            ranked_of[i] = [int(self._table[here_list[i], action])]
-            if action != WAIT and ranked_of[i][0] == here_list[i]:
-                ranked_of[i] = [here_list[i]]  # into a wall or shelf: it stays
+            if self.turning:  # forward: the cell ahead, a turn or a wait: its own cell
+                ahead = int(self._table[here_list[i], HEADING_MOVES[headings[i]]])
+                ranked_of[i] = [ahead if action == TurnAction.FORWARD else here_list[i]]
+            else:
+                ranked_of[i] = [int(self._table[here_list[i], action])]
+                if action != WAIT and ranked_of[i][0] == here_list[i]:
+                    ranked_of[i] = [here_list[i]]  # into a wall or shelf: it stays
         by_priority = moving[np.argsort(-self._priority[moving], kind="stable")].tolist()
-        step_one = self._pibt if self.corner_follows else self._pibt_straight
-        for i in [*requested, *by_priority]:
+        first = list(requested)
+        if self.turning:  # robots turning towards a cell plan first, for that cell alone
+            committed = [i for i in by_priority if self._committed[i] != NIL and i not in requested]
+            for i in committed:
+                ranked_of[i] = [int(self._committed[i])]
+            first += committed
+        step_one = self._pibt if self.corner_follows or self.turning else self._pibt_straight
+        for i in [*first, *by_priority]:
             if plan[i] == NIL:
                 step_one(i, here_list, ranked_of, plan, occupied_now, occupied_next)
+        if self.turning:
+            return self._turning_actions(here, headings, goal, plan, ranked_of, present,
+                                         movable, requested)  # fmt: skip
 
         actions = np.full(n, WAIT, dtype=np.int64)
         step = np.array(plan, dtype=np.int64)[moving] - here[moving] + cols
@@ -198,10 +255,12 @@ class PIBT:
         moving: np.ndarray,
         present: np.ndarray,
         distances: DistanceMaps,
+        headings: np.ndarray | None = None,
     ) -> list[list[int] | None]:
         """Each moving robot's candidate cells, best first (``None`` for the others):
-        nearest to its goal, then a cell nobody stands on now, then at random; cells it
-        cannot reach its goal from are :data:`NIL`."""
+        nearest to its goal (turning robots: by :meth:`_count_turns`), then a cell nobody
+        stands on now, then at random; cells it cannot reach its goal from are
+        :data:`NIL`."""
         n, cols = len(here), self.grid.cols
         # Candidates of every moving robot, nearest to the goal first, in one look-up.
         candidates = self._table[here[moving]]  # (m, 5): the four moves, then staying
@@ -216,6 +275,8 @@ class PIBT:
                     distance[rows] = maps.lookup(candidates[rows], targets[rows])
         blocked = candidates[:, :WAIT] == here[moving, None]  # a move into a wall or shelf
         distance[:, :WAIT][blocked] = np.inf  # UNREACHABLE cells stay last but one
+        if headings is not None:
+            distance = self._count_turns(distance, headings[moving], here[moving] == goal[moving])
         # Nearest first; among equals a cell nobody stands on now (no one to push),
         # then at random.
         occupied = np.zeros(self.grid.rows * cols, dtype=bool)
@@ -229,6 +290,91 @@ class PIBT:
         for i, row in zip(moving.tolist(), ranked.tolist(), strict=True):
             ranked_of[i] = row
         return ranked_of
+
+    def _lookup(
+        self, cells: np.ndarray, goals: np.ndarray, moving: np.ndarray, distances: DistanceMaps
+    ) -> np.ndarray:
+        """The distances of ``cells`` to ``goals`` (rows by moving robot), round the held
+        cells except for a robot whose goal is one (that one on the plain floor)."""
+        if distances is self.distances:
+            return distances.lookup(cells, goals)
+        out = np.empty(cells.shape, dtype=np.int64)
+        onto_held = self._plain[moving]
+        for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
+            if rows.any():
+                out[rows] = maps.lookup(cells[rows], goals[rows])
+        return out
+
+    def _count_turns(
+        self, distance: np.ndarray, headings: np.ndarray, at_goal: np.ndarray
+    ) -> np.ndarray:
+        """Turning robots' candidate values (``(m, 5)``: the four moves by grid action,
+        then staying) from the cells' distances: a move costs the quarter turns to face it,
+        the move and the cell's distance; staying costs a step more than the best move
+        (0 on the goal)."""
+        faces = MOVE_HEADINGS[np.arange(WAIT)]
+        value = distance.copy()
+        value[:, :WAIT] += quarter_turns(headings[:, None], faces[None, :]) + 1
+        value[:, WAIT] = value[:, :WAIT].min(axis=1) + 1
+        value[at_goal, WAIT] = 0.0
+        return value
+
+    def _commitments(self, here: np.ndarray, goal: np.ndarray, movable: np.ndarray) -> None:
+        """Keep the cells turning robots are turning towards, dropping those reached, no
+        longer next to the robot, or made for another goal."""
+        n = len(here)
+        if len(self._committed) != n:
+            self._committed = np.full(n, NIL, dtype=np.int64)
+            self._committed_goal = np.full(n, NIL, dtype=np.int64)
+        committed = self._committed
+        held = committed != NIL
+        if held.any():
+            beside = (self._table[here, :WAIT] == committed[:, None]).any(axis=1)
+            keep = held & beside & (committed != here) & (self._committed_goal == goal) & movable
+            committed[~keep] = NIL
+
+    def _turning_actions(
+        self,
+        here: np.ndarray,
+        headings: np.ndarray,
+        goal: np.ndarray,
+        plan: list[int],
+        ranked_of: list[Any],
+        present: np.ndarray,
+        movable: np.ndarray,
+        requested: dict[int, int],
+    ) -> np.ndarray:
+        """Turning robots' actions from the planned cells: forward where the planned cell
+        is ahead; a turn towards it (on the shorter side) where it is beside or behind,
+        and the robot keeps that cell as its next (a commitment, see the class); a robot
+        that stays turns towards its best candidate. Passed through the traffic rule, so
+        every action is granted."""
+        n = len(here)
+        moving = np.flatnonzero(movable)
+        planned = np.array(plan, dtype=np.int64)
+        stays = np.zeros(n, dtype=bool)
+        stays[moving] = planned[moving] == here[moving]
+        best = np.array([NIL if r is None else r[0] for r in ranked_of], dtype=np.int64)
+        target = np.where(stays & (best != NIL), best, planned)  # staying: face the best cell
+        target[~movable] = here[~movable]
+        move = np.array(self._action_of, dtype=np.int64)[target - here + self.grid.cols]
+        wanted = np.where(move == WAIT, headings, MOVE_HEADINGS[np.minimum(move, WAIT - 1)])
+        actions = turn_towards(headings, wanted)
+        facing = (wanted == headings) & ~stays & movable
+        actions[facing] = TurnAction.FORWARD
+        for i, action in requested.items():
+            if stays[i]:  # a turn or a wait as asked; a forward move that cannot be made waits
+                actions[i] = action if action != TurnAction.FORWARD else TurnAction.WAIT
+        grants = turning_moves(self.grid, here, headings, actions, ~movable & present,
+                               corner_follows=self.corner_follows)  # fmt: skip
+        actions[grants.refused] = TurnAction.WAIT
+        commit = movable & ~stays & ~facing
+        commit[list(requested)] = False
+        commit |= facing & grants.refused & self.corner_follows  # it goes on the next step
+        self._committed[commit] = planned[commit]
+        self._committed_goal[commit] = goal[commit]
+        self._committed[~commit] = NIL
+        return actions
 
     def _distances_round(self, held: np.ndarray) -> DistanceMaps:
         """Distances on the floor with the ``held`` cells (parked robots, which never move
@@ -413,6 +559,8 @@ class PIBT:
         """A stack frame of :meth:`_pibt` for robot ``i``: its candidates, reversed (away
         from its goal first) when it must let a robot pass (:meth:`_swap_partner`)."""
         candidates = ranked_of[i]
+        if self.turning:  # no swap operation: it would pull a robot backwards
+            return [i, candidates, 0, NIL]
         partner = self._swap_partner(i, here, candidates, plan, occupied_now)
         if partner != NIL:
             candidates = candidates[::-1]
@@ -540,7 +688,8 @@ def pibt_policy(seed: int = 0) -> FleetPolicy:
     the steps of an episode, started afresh when the environment resets (``env.steps``
     back at 0) or another environment calls it. It reads the fleet's public state only:
     ``grid``, ``robot_cells``, ``package_cells``, ``parked``, ``on_floor``, ``steps``,
-    ``corner_follows`` and ``distances``."""
+    ``corner_follows``, ``distances``, and for turning robots ``moves`` and
+    ``robot_headings``."""
     state: dict[str, Any] = {"env": None, "planner": None, "index": {}}
 
     def policy(
@@ -551,11 +700,16 @@ def pibt_policy(seed: int = 0) -> FleetPolicy:
         if state["env"] is not env or env.steps == 0:
             state["env"] = env
             state["planner"] = PIBT(env.grid, distances=env.distances,
-                                    corner_follows=env.corner_follows, seed=seed)  # fmt: skip
+                                    corner_follows=env.corner_follows, seed=seed,
+                                    moves=getattr(env, "moves", "grid"))  # fmt: skip
             state["index"] = {agent: i for i, agent in enumerate(env.possible_agents)}
         planner: PIBT = state["planner"]
         actions = planner.plan(
-            env.robot_cells, env.package_cells, ~env.parked & env.on_floor, env.on_floor
+            env.robot_cells,
+            env.package_cells,
+            ~env.parked & env.on_floor,
+            env.on_floor,
+            headings=getattr(env, "robot_headings", None),
         ).tolist()
         index = state["index"]
         return {agent: actions[index[agent]] for agent in env.agents}
