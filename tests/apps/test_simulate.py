@@ -158,3 +158,60 @@ def test_a_one_shot_run_measures_as_evaluate_fleet_does(on_delivery, seed):
     assert result.refused == evaluation.refused
     assert "makespan" in result.summary()
     assert result.to_json()["sum_of_costs"] == result.sum_of_costs
+
+
+# ------------------------------------------------------------------ instances
+@pytest.mark.parametrize("moves", ["grid", "rotate"])
+def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_file(
+    tmp_path, capsys, moves
+):
+    from tests.envs.test_fleet_instances import small_instance
+    from warehouse_phys.rules.instances import write_instance
+    from warehouse_phys.rules.lorr_output import replay
+
+    # Named as the 2024 record instance, so that its published figures are shown.
+    path = write_instance(small_instance("scheduler", robots=6), tmp_path / "WAREHOUSE.json")
+    out = tmp_path / "run"
+    assert main(["--instance", str(path), "--moves", moves, "--steps", "30", "--out", str(out),
+                 "--quiet", "--frames", "3", "--no-compare"]) == 0  # fmt: skip
+    printed = capsys.readouterr().out
+    assert f"6 robots on WAREHOUSE, 30 steps (new_package, {moves} moves)" in printed
+    assert "errands/step" in printed
+    assert "tasks/step" in printed
+    assert "published on WAREHOUSE: best known 30.97 tasks/step, default entry 12.78" in printed
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["instance"] == "WAREHOUSE"
+    assert summary["moves"] == moves
+    assert summary["errands"] == summary["deliveries"] >= summary["tasks"]
+    assert summary["published"]["best_per_step"] == 30.97
+    timing = summary["cpu_seconds_of"]
+    assert set(timing) == {"reset", "first_step", "median_step", "max_step"}
+    assert timing["max_step"] >= timing["median_step"] > 0
+    output = json.loads((out / "lorr-output.json").read_text())
+    assert output["numTaskFinished"] == summary["tasks"]
+    grid = fleet.parallel_env(instance=path).grid
+    assert replay(output, grid).conflicts == []
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--layout", "aisles"], "an instance gives the floor, the robots and their errands; "
+                                 "do not give --layout"),
+        (["--robots", "3"], "do not give --robots"),
+        (["--moves", "hop"], "invalid choice: 'hop'"),
+    ],
+)  # fmt: skip
+def test_bad_instance_arguments_end_in_one_line(tmp_path, capsys, argv, message):
+    from tests.envs.test_fleet_instances import small_instance
+    from warehouse_phys.rules.instances import write_instance
+
+    path = write_instance(small_instance(), tmp_path / "x.json")
+    assert main(["--instance", str(path), "--out", str(tmp_path / "run"), *argv]) == 2
+    error = capsys.readouterr().err
+    assert message in error
+    assert error.count("\n") == 1
+    (tmp_path / "bad.json").write_text('{"taskAssignmentStrategy": "greedy", "teamSize": 3}')
+    assert main(["--instance", str(tmp_path / "bad.json"), "--out", str(tmp_path / "r")]) == 2
+    assert "bad.json: missing 'mapFile'" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()

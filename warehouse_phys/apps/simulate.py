@@ -4,6 +4,8 @@
     python -m warehouse_phys.simulate --layout warehouse --robots 128 --policy shortest
     python -m warehouse_phys.simulate --layout aisles --robots 4 --on-delivery park \\
         --policy runs/grid-aisles-seed0-.../qtable.npz
+    python -m warehouse_phys.simulate --moves rotate \\
+        --instance ../shared/lorr/2023-main-warehouse/MR23-I-10.json
 
 A fleet of ``--robots`` robots on ``--layout`` (a preset, a ``.map`` file or a text
 layout file; or ``--rows``/``--cols``) follows ``--policy`` for ``--steps`` joint
@@ -22,6 +24,17 @@ policy that does worse. It writes a run folder (default
 (with the comparison), ``throughput.png`` (deliveries over time), ``congestion.png``
 (waits on each cell) and ``fleet.gif`` (``--frames`` frames evenly spread, sized to
 fit a 1000-pixel frame). Bad arguments end with exit status 2 and a one-line message.
+
+``--instance X.json`` runs a League of Robot Runners problem instead
+(:mod:`warehouse_phys.rules.instances`: its floor, robots, starts and task list;
+``--steps`` 5,000 by default, as the competition counts): it reports errands and
+tasks finished a step, beside the published figure where the instance is one of
+:data:`~warehouse_phys.rules.instances.PUBLISHED_FIGURES`, and also writes
+``lorr-output.json``, the competition's output file
+(:mod:`warehouse_phys.rules.lorr_output`), which its own tools and viewer read.
+``--moves rotate`` gives the robots the competition's model (turn in place, drive
+forward), on any floor. ``summary.json`` records the CPU time of the reset, of the
+first step and the median and slowest of the others (frames apart).
 
 One command line: its length is its options, its measures and its run folder.
 """
@@ -54,10 +67,13 @@ from warehouse_phys.rl.fleet_evaluation import (
     walled_off_packages,
     worse_policies,
 )
+from warehouse_phys.rules.headings import MOVE_MODELS
+from warehouse_phys.rules.instances import PUBLISHED_FIGURES
+from warehouse_phys.rules.lorr_output import RunRecord, actual_actions, write_output
 
 PROG = "python -m warehouse_phys.simulate"
 POLICIES = ("pibt", "shortest", "random")
-RUN_FILES = ("summary.json", "throughput.png", "congestion.png", "fleet.gif")
+RUN_FILES = ("summary.json", "throughput.png", "congestion.png", "fleet.gif", "lorr-output.json")
 DEFAULT_RUNS_DIR = Path("runs")
 #: Frames of the GIF by default: enough to see the traffic, few enough to stay small.
 DEFAULT_FRAMES = 64
@@ -66,6 +82,8 @@ BASELINES = ("shortest", "random")
 #: Robot-steps (robots x steps) up to which the command also runs the baselines: a few
 #: seconds on the grid; the physics world is never compared.
 COMPARE_BUDGET = 200_000
+#: Steps of a run by default, and of an instance's (the competition's count).
+DEFAULT_STEPS, INSTANCE_STEPS = 256, 5000
 
 
 @dataclass(frozen=True)
@@ -85,7 +103,8 @@ class Simulation:
     waits: np.ndarray
     #: Moves that traffic turned into waits.
     refused: int
-    #: Seconds of CPU time the run took, the environment and the policy together.
+    #: Seconds of CPU time the steps took, the environment and the policy together
+    #: (frames apart; the reset is ``reset_seconds``).
     cpu_seconds: float
     #: One-shot runs only (``on_delivery`` ``"park"`` or ``"leave"``): the step at which
     #: each robot delivered, 0 for a robot that did not, ``(robots,)``.
@@ -94,6 +113,14 @@ class Simulation:
     shortest: np.ndarray | None = None
     #: One-shot runs only: undelivered packages that parked robots wall off at the end.
     walled_off: int = 0
+    #: CPU seconds of the reset, and of each step (policy and environment, no frames).
+    reset_seconds: float = 0.0
+    step_seconds: np.ndarray | None = None
+    #: ``"grid"`` or ``"rotate"``.
+    moves: str = "grid"
+    #: An instance run: the instance's name and the tasks finished at each step.
+    instance: str | None = None
+    tasks: np.ndarray | None = None
 
     @property
     def steps(self) -> int:
@@ -133,7 +160,10 @@ class Simulation:
 
     def measures(self) -> str:
         """The measures in one line: throughput, deliveries, waits and refused moves; and
-        one-shot, the makespan and the sum of costs against the shortest paths'."""
+        one-shot, the makespan and the sum of costs against the shortest paths'; an
+        instance run counts errands and tasks, beside the published figure."""
+        if self.tasks is not None:
+            return self._instance_measures()
         line = (
             f"throughput {self.throughput:.2f} deliveries/step, "
             f"{int(self.deliveries.sum()):,} deliveries, {int(self.waits.sum()):,} waits, "
@@ -148,11 +178,36 @@ class Simulation:
             )
         return line
 
+    def _instance_measures(self) -> str:
+        steps = max(self.steps, 1)
+        errands, tasks = int(self.deliveries.sum()), int(self.tasks.sum())
+        line = (
+            f"{errands / steps:.2f} errands/step, {tasks / steps:.2f} tasks/step ({errands:,} "
+            f"errands, {tasks:,} tasks), {int(self.waits.sum()):,} waits, "
+            f"{self.refused:,} refused moves"
+        )
+        published = PUBLISHED_FIGURES.get(self.instance or "")
+        if published is not None:
+            line += f"; published on {self.instance}: {published.describe()}"
+        return line
+
     def summary(self) -> str:
+        what = "" if self.tasks is None else f", {self.moves} moves"
         return (
             f"{self.policy}, {self.robots:,} robots on {self.layout}, {self.steps} steps "
-            f"({self.on_delivery}): {self.measures()}"
+            f"({self.on_delivery}{what}): {self.measures()}"
         )
+
+    def timing(self) -> dict[str, float]:
+        """CPU seconds: the reset, the first step, the median and the slowest of the others."""
+        times = np.zeros(0) if self.step_seconds is None else self.step_seconds
+        later = times[1:] if len(times) > 1 else times
+        return {
+            "reset": self.reset_seconds,
+            "first_step": float(times[0]) if len(times) else 0.0,
+            "median_step": float(np.median(later)) if len(later) else 0.0,
+            "max_step": float(later.max()) if len(later) else 0.0,
+        }
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -168,8 +223,26 @@ class Simulation:
             "waits": int(self.waits.sum()),
             "refused": self.refused,
             "cpu_seconds": self.cpu_seconds,
+            "cpu_seconds_of": self.timing(),
+            "moves": self.moves,
             **self._one_shot_json(),
+            **self._instance_json(),
             "deliveries_per_step": self.deliveries.tolist(),
+        }
+
+    def _instance_json(self) -> dict[str, Any]:
+        if self.tasks is None:
+            return {}
+        steps = max(self.steps, 1)
+        published = PUBLISHED_FIGURES.get(self.instance or "")
+        return {
+            "instance": self.instance,
+            "errands": int(self.deliveries.sum()),
+            "errands_per_step": int(self.deliveries.sum()) / steps,
+            "tasks": int(self.tasks.sum()),
+            "tasks_per_step": int(self.tasks.sum()) / steps,
+            "published": None if published is None else published.to_json(),
+            "tasks_per_step_series": self.tasks.tolist(),
         }
 
     def _one_shot_json(self) -> dict[str, Any]:
@@ -228,16 +301,21 @@ def simulate(
     name: str = "policy",
     layout: str = "",
     cell_px: int | None = None,
+    record: RunRecord | None = None,
 ) -> tuple[Simulation, list[np.ndarray]]:
     """Play ``policy`` on ``env`` from ``env.reset(seed=seed)`` for ``steps`` joint steps
     (fewer if every robot finished); returns the measures and ``min(frames, steps + 1)``
     map frames (:func:`~warehouse_phys.drawing.render.fleet_map_frame`, ``cell_px`` pixels a cell,
     by default what fits 1000 pixels), the first at the reset, the last after the last
     step, evenly spread (fewer when the episode ends early).
-    ``on_step()`` is called after each step (a progress bar)."""
+    ``on_step()`` is called after each step (a progress bar); ``record`` (a
+    :class:`~warehouse_phys.rules.lorr_output.RunRecord`) gets every step's planned and
+    actual actions (an instance fleet's, for the competition's output file)."""
     from warehouse_phys.drawing.render import fleet_map_frame
 
+    started = time.process_time()
     observations, infos = env.reset(seed=seed)
+    reset_seconds = time.process_time() - started
     grid, cols = env.grid, env.grid.cols
     waits = np.zeros(grid.rows * cols, dtype=np.int64)
     cells, packages = env.robot_cells, env.package_cells
@@ -251,20 +329,33 @@ def simulate(
 
     def picture() -> None:
         pictures.append(fleet_map_frame(grid, env.robot_cells, env.package_cells, cell_px=cell_px,
-                                        parked=env.parked, on_floor=env.on_floor))  # fmt: skip
+                                        parked=env.parked, on_floor=env.on_floor,
+                                        headings=env.robot_headings))  # fmt: skip
 
     if frames:
         picture()
     shot = 1  # the next of shots to take
-    started = time.process_time()
+    errands = env.errands
+    tasks_at: list[int] = []
+    step_seconds: list[float] = []
     for step in range(steps):
         if not env.agents:
             break
         before = env.robot_cells.copy()
+        headings_before = None if env.robot_headings is None else env.robot_headings.copy()
         working = env.on_floor & ~env.parked
+        busy = None if errands is None else errands.goals >= 0
+        tasks_before = 0 if errands is None else errands.tasks_done
+        begun = time.process_time()
         actions = policy(env, observations, infos)
+        planned = time.process_time()
         delivered_before = int(env.deliveries.sum())
         observations, _, _, _, infos = env.step(actions)
+        step_seconds.append(time.process_time() - begun)
+        if errands is not None:
+            tasks_at.append(errands.tasks_done - tasks_before)
+        if record is not None:
+            _record_step(record, env, actions, before, headings_before, busy, planned - begun)
         if len(observations) != len(env.agents):
             observations = {agent: observations[agent] for agent in env.agents}
         deliveries.append(int(env.deliveries.sum()) - delivered_before)
@@ -287,7 +378,12 @@ def simulate(
         deliveries=np.array(deliveries, dtype=np.int64),
         waits=waits.reshape(grid.rows, grid.cols),
         refused=int(refused),
-        cpu_seconds=time.process_time() - started,
+        cpu_seconds=float(sum(step_seconds)),
+        reset_seconds=reset_seconds,
+        step_seconds=np.array(step_seconds),
+        moves=env.moves,
+        instance=None if env.instance is None else env.instance.name,
+        tasks=None if errands is None else np.array(tasks_at, dtype=np.int64),
         **(
             {}
             if env.lifelong
@@ -299,6 +395,28 @@ def simulate(
         ),
     )
     return result, pictures
+
+
+def _record_step(
+    record: RunRecord,
+    env: WarehouseFleetEnv,
+    actions: dict[str, int],
+    before: np.ndarray,
+    headings_before: np.ndarray | None,
+    busy: np.ndarray | None,
+    seconds: float,
+) -> None:
+    """One step of ``env`` into ``record``: planned actions (WAIT for robots that are not
+    live), the actions taken (from the robots' cells and headings), who had an errand."""
+    cols = env.grid.cols
+    planned = np.full(env.num_robots, env.action_space(env.possible_agents[0]).n - 1)
+    for agent, action in actions.items():
+        planned[int(agent.rsplit("_", 1)[1])] = int(action)
+    after = env.robot_cells
+    taken = actual_actions(before @ [cols, 1], after @ [cols, 1], cols,
+                           headings_before, env.robot_headings)  # fmt: skip
+    had = np.ones(env.num_robots, dtype=bool) if busy is None else busy
+    record.add(planned, taken, had, seconds)
 
 
 def run_baselines(
@@ -339,23 +457,30 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run a fleet policy on a floor; print and save its throughput.",
     )
     parser.add_argument("--layout", help="a preset, a MovingAI .map file or a layout file")
+    parser.add_argument(
+        "--instance", type=Path,
+        help="a League of Robot Runners instance (.json): its floor, robots and tasks",
+    )  # fmt: skip
+    parser.add_argument(
+        "--moves", choices=MOVE_MODELS, default="grid",
+        help="grid: four directions (default); rotate: robots turn in place and drive forward",
+    )  # fmt: skip
     parser.add_argument("--rows", type=bounded_int(2, "at least 2 rows"), help="empty floor rows")
     parser.add_argument("--cols", type=bounded_int(2, "at least 2 columns"), help="columns")
     parser.add_argument(
         "--robots",
         type=bounded_int(1, f"a number of robots from 1 to {MAX_CLI_ROBOTS:,}", MAX_CLI_ROBOTS),
-        default=4,
-        help="robots in the fleet (default 4)",
+        help="robots in the fleet (default 4; an instance: its teamSize)",
     )
     parser.add_argument(
         "--policy", default="pibt", help="pibt (default), shortest, random, or a table (.npz)"
     )
     parser.add_argument(
-        "--steps", type=bounded_int(1, "a positive number of steps"), default=256,
-        help="joint steps (default 256)",
+        "--steps", type=bounded_int(1, "a positive number of steps"),
+        help=f"joint steps (default {DEFAULT_STEPS}; an instance: {INSTANCE_STEPS:,})",
     )  # fmt: skip
     parser.add_argument(
-        "--on-delivery", choices=DELIVERY_MODES, default="new_package",
+        "--on-delivery", choices=DELIVERY_MODES,
         help="what a robot does with a delivered package (default new_package: lifelong)",
     )  # fmt: skip
     parser.add_argument("--physics", action="store_true", help="drive the physics twin")
@@ -386,7 +511,7 @@ def main(argv: list[str] | None = None) -> int:
         env, policy = _setup(args)
         label = _floor_label(args)
         name = (
-            f"simulate-{label}-{args.robots}-{Path(args.policy).stem}-seed{args.seed}-"
+            f"simulate-{label}-{env.num_robots}-{Path(args.policy).stem}-seed{args.seed}-"
             f"{time.strftime('%Y%m%d-%H%M%S')}"
         )
         folder = open_run_folder(
@@ -394,9 +519,14 @@ def main(argv: list[str] | None = None) -> int:
         )
         finished = False
         try:
-            result, frames = _run(args, env, policy, label)
+            result, frames, record = _run(args, env, policy, label)
+            if record is not None:  # before the baselines run the errand list again
+                instance, errands = env.instance, env.errands
+                folder.write(
+                    "lorr-output.json", lambda path: write_output(path, instance, record, errands)
+                )
             runs = {result.policy: result}
-            if _compare(args):
+            if _compare(args, env):
                 runs |= run_baselines(env, steps=args.steps, seed=args.seed, skip=result.policy)
             _write(folder, env, result, frames, runs)
             finished = True
@@ -422,13 +552,26 @@ def main(argv: list[str] | None = None) -> int:
 def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
     if args.layout is not None and (args.rows is not None or args.cols is not None):
         raise UsageError("give --layout or --rows/--cols, not both")
-    floor: dict[str, Any] = {"layout": args.layout}
-    if args.layout is None:
+    if args.instance is not None:
+        given = [flag for flag, value in (("--layout", args.layout), ("--rows", args.rows),
+                 ("--cols", args.cols), ("--robots", args.robots),
+                 ("--on-delivery", args.on_delivery)) if value is not None]  # fmt: skip
+        if given:
+            raise UsageError(f"an instance gives the floor, the robots and their errands; "
+                             f"do not give {', '.join(given)}")  # fmt: skip
+        floor: dict[str, Any] = {"instance": args.instance, "record_errands": True}
+    elif args.layout is None:
         floor = {"grid_rows": args.rows or 4, "grid_cols": args.cols or 5}
+    else:
+        floor = {"layout": args.layout}
+    if args.steps is None:
+        args.steps = DEFAULT_STEPS if args.instance is None else INSTANCE_STEPS
+    if args.instance is None:
+        floor |= {"num_robots": args.robots or 4, "on_delivery": args.on_delivery or "new_package"}
     try:
         env = parallel_env(
-            num_robots=args.robots, physics=args.physics, on_delivery=args.on_delivery,
-            max_cycles=args.steps, observation=_observation_of(args.policy), **floor,
+            physics=args.physics, max_cycles=args.steps, moves=args.moves,
+            observation=_observation_of(args.policy), **floor,
         )  # fmt: skip
         policy = make_policy(args.policy, env, seed=args.seed)
     except (ValueError, TypeError, OSError) as error:
@@ -436,9 +579,10 @@ def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
     return env, policy
 
 
-def _compare(args: argparse.Namespace) -> bool:
+def _compare(args: argparse.Namespace, env: WarehouseFleetEnv) -> bool:
     """Whether the baselines run too: unless --no-compare, on the grid, when cheap."""
-    return not args.no_compare and not args.physics and args.robots * args.steps <= COMPARE_BUDGET
+    cheap = env.num_robots * args.steps <= COMPARE_BUDGET
+    return not args.no_compare and not args.physics and cheap
 
 
 def _observation_of(policy: str) -> str:
@@ -455,6 +599,8 @@ def _observation_of(policy: str) -> str:
 
 
 def _floor_label(args: argparse.Namespace) -> str:
+    if args.instance is not None:
+        return Path(args.instance).stem
     if args.layout is None:
         return f"{args.rows or 4}x{args.cols or 5}"
     return Path(args.layout).stem if args.layout.endswith(".map") else Path(args.layout).name
@@ -462,19 +608,21 @@ def _floor_label(args: argparse.Namespace) -> str:
 
 def _run(
     args: argparse.Namespace, env: WarehouseFleetEnv, policy: FleetPolicy, label: str
-) -> tuple[Simulation, list[np.ndarray]]:
+) -> tuple[Simulation, list[np.ndarray], RunRecord | None]:
     from tqdm import tqdm
 
+    record = None if env.instance is None else RunRecord(env.num_robots, turning=env.turning)
     # disable=None: tqdm switches itself off when stderr is not a terminal.
     with tqdm(total=args.steps, desc="simulating", unit="step",
               disable=True if args.quiet else None) as bar:  # fmt: skip
         try:
-            return simulate(
+            result, frames = simulate(
                 env, policy, steps=args.steps, seed=args.seed, frames=args.frames,
-                on_step=bar.update, name=Path(args.policy).name, layout=label,
+                on_step=bar.update, name=Path(args.policy).name, layout=label, record=record,
             )  # fmt: skip
         except ValueError as error:  # a table's observation that does not fit, ...
             raise UsageError(str(error).splitlines()[0]) from None
+    return result, frames, record
 
 
 def _write(

@@ -28,7 +28,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
-from warehouse_phys.rules.traffic import FLEET_ACTIONS, WAIT, neighbour_table
+from warehouse_phys.rules.headings import MOVE_HEADINGS, TurnAction, turn_towards
+from warehouse_phys.rules.traffic import WAIT, neighbour_table
 
 #: A fleet policy: the environment, every live robot's observation and last info -> actions.
 FleetPolicy = Callable[
@@ -43,7 +44,8 @@ def shortest_path_policy(
 ) -> dict[str, int]:
     """Each robot moves along a shortest path to its package (the first such move in
     action order whose cell no robot on the floor stands on) and waits when every such
-    cell is taken. Array operations over the live robots, with the fleet's distance maps."""
+    cell is taken; a turning robot drives forward if it faces that cell, else turns
+    towards it. Array operations over the live robots, with the fleet's distance maps."""
     agents = list(observations)
     if not agents:
         return {}
@@ -61,11 +63,17 @@ def shortest_path_policy(
     now, after = distance[: len(here)], distance[len(here) :].reshape(-1, WAIT)
     good = (after < now[:, None]) & ~taken[moves]
     actions = np.where(good.any(axis=1), good.argmax(axis=1), WAIT)
+    if env.robot_headings is not None:  # turning robots: face the move, then make it
+        headings = env.robot_headings[robots]
+        wanted = np.where(actions == WAIT, headings, MOVE_HEADINGS[np.minimum(actions, WAIT - 1)])
+        actions = turn_towards(headings, wanted)
+        actions[(wanted == headings) & good.any(axis=1)] = TurnAction.FORWARD
     return dict(zip(agents, actions.tolist(), strict=True))
 
 
 def random_fleet_policy(seed: int) -> FleetPolicy:
-    """Every robot takes a uniformly random action of the five, from a generator of ``seed``."""
+    """Every robot takes a uniformly random action of its action space (the five of the
+    four-direction fleet, the four of turning robots), from a generator of ``seed``."""
     rng = np.random.default_rng([seed, 3])
 
     def policy(
@@ -73,7 +81,10 @@ def random_fleet_policy(seed: int) -> FleetPolicy:
         observations: dict[str, np.ndarray],
         infos: dict[str, dict[str, Any]],
     ) -> dict[str, int]:
-        return {agent: int(rng.integers(FLEET_ACTIONS)) for agent in observations}
+        if not observations:
+            return {}
+        count = int(env.action_space(next(iter(observations))).n)
+        return {agent: int(rng.integers(count)) for agent in observations}
 
     return policy
 
