@@ -279,8 +279,13 @@ def test_a_fleet_layout_puts_its_robots_on_its_start_cells():
         ({"robot_radius": 0.7}, ValueError, "robot_radius 0.7 m must be less than half"),
         ({"render_mode": "human"}, ValueError, "render_mode must be None or one of"),
         ({"mass": 3.0}, TypeError, r"unknown argument\(s\) 'mass'; the physical parameters"),
+        ({"num_robots": np.timedelta64(3)}, TypeError, "num_robots must be an integer"),
+        ({"max_cycles": np.timedelta64(4)}, TypeError, "max_cycles must be an integer"),
+        ({"max_cycles": np.timedelta64(7, "s")}, TypeError, "max_cycles must be an integer"),
+        ({"num_robots": np.int64(2**40), "observation": "global"}, ValueError,
+         "1,099,511,627,776 robots would need 36,893,488,147,419,103,232 MiB a step"),
     ],
-)
+)  # fmt: skip
 def test_bad_arguments_are_refused_by_name(kwargs, error, message):
     with pytest.raises(error, match=message):
         fleet.parallel_env(**kwargs)
@@ -294,8 +299,13 @@ def test_bad_arguments_are_refused_by_name(kwargs, error, message):
         ({"robot_0": 0.0, "robot_1": 1}, TypeError, "robot_0's action must be an integer"),
         ({"robot_0": 0, "robot_1": 1, "robot_9": 1}, ValueError, "not live"),
         ([0, 1], TypeError, "actions must be a dict"),
+        ({"robot_0": 2**63, "robot_1": 1}, ValueError, "robot_0's action must be 0..4"),
+        ({"robot_0": np.uint64(2**63), "robot_1": 1}, ValueError, "robot_0's action must be"),
+        ({"robot_0": -(2**70), "robot_1": 1}, ValueError, "robot_0's action must be 0..4"),
+        ({"robot_0": np.ma.masked_array(2, mask=True), "robot_1": 1}, ValueError,
+         "robot_0's action is masked: it has no value"),
     ],
-)
+)  # fmt: skip
 def test_bad_actions_are_refused_and_change_nothing(actions, error, message):
     env = fleet.parallel_env(num_robots=2, lifelong=True)
     env.reset(seed=0)
@@ -454,6 +464,10 @@ def test_the_aec_form_refuses_a_bad_action_before_anything_changes():
     env.reset(seed=0)
     with pytest.raises(ValueError, match=r"robot_0's action must be 0\.\.4"):
         env.step(7)
+    with pytest.raises(ValueError, match="robot_0's action is masked"):
+        env.step(np.ma.masked_array(WAIT, mask=True))
+    with pytest.raises(ValueError, match=r"robot_0's action must be 0\.\.4"):
+        env.step(np.uint64(2**64 - 1))
     env.step(WAIT)  # still robot_0's turn: nothing was stored
     env.step(WAIT)
     assert env.unwrapped.steps == 1

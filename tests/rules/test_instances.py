@@ -224,3 +224,62 @@ def test_random_instances_round_trip(tmp_path_factory, rows, cols, shelf_bits, y
     assert (again.grid.rows, again.grid.cols) == (rows, cols)
     for field in ("num_tasks_reveal", "assignment", "version", "agent_counter", "delay"):
         assert getattr(again, field) == getattr(instance, field)
+
+
+def test_files_that_are_no_text_or_too_large_are_refused_in_one_line(tmp_path, monkeypatch):
+    from warehouse_phys.rules import instances
+
+    path = write_files(tmp_path)
+    path.write_bytes(b"\xff\xfe{}")
+    with pytest.raises(ValueError, match="not UTF-8 text; not a LoRR instance"):
+        read_instance(path)
+    path = write_files(tmp_path)
+    monkeypatch.setattr(instances, "MAX_LIST_BYTES", 8)
+    with pytest.raises(
+        ValueError, match=r"a\.agents: larger than any start file this reader takes"
+    ):
+        read_instance(path)
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"starts": []}, "no robot"),
+        ({"task_offsets": [0, 1, 1]}, "every task needs at least one stop"),
+        ({"task_offsets": [0, 1, 3]}, "task_offsets end at 3, not at 2 stops"),
+        ({"task_stops": [3, 99]}, "1 task stops off the 3 x 5 map, the first 99"),
+        ({"starts": [0, -1]}, "1 starts off the 3 x 5 map, the first -1"),
+        ({"assignment": "scheduler"}, "a scheduler assigns the tasks of 2024 and later, only"),
+        ({"assignment": "auction"}, "unknown assignment 'auction'"),
+    ],
+)
+def test_an_instance_built_in_memory_is_checked_as_a_read_one(fields, message):
+    grid = WarehouseGrid.from_layout(FLOOR)
+    kwargs = {"name": "mem", "grid": grid, "starts": [0, 2], "task_offsets": [0, 1, 2],
+              "task_stops": [3, 13], **fields}  # fmt: skip
+    with pytest.raises(ValueError, match=message):
+        LorrInstance(**kwargs)
+
+
+def test_unreadable_files_and_odd_values_are_refused_in_one_line(tmp_path, monkeypatch):
+    path = write_files(tmp_path, data={"mapFile": ""})
+    with pytest.raises(ValueError, match="mapFile must be a non-empty string, got ''"):
+        read_instance(path)
+    delays = {"seed": 0, "minDelay": 1, "maxDelay": 4, "eventModel": "poisson", "pDelay": 0.1,
+              "durationModel": "gaussian"}  # fmt: skip
+    path = write_files(tmp_path)
+    data = json.loads(path.read_text())
+    path.write_text(json.dumps({**data, "delayConfig": delays})[:-1] + ', "x": NaN}')
+    read_instance(path)  # an unknown key is ignored, as the competition does
+    text = json.dumps({**data, "delayConfig": {**delays, "gaussStdRatio": 0.1}})
+    path.write_text(text.replace("0.1}", "NaN}"))
+    with pytest.raises(ValueError, match="gauss_std_ratio must be finite"):
+        read_instance(path)
+
+    def refuse(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    path = write_files(tmp_path)
+    monkeypatch.setattr(Path, "open", refuse)
+    with pytest.raises(ValueError, match="cannot read the instance file: Permission denied"):
+        read_instance(path)

@@ -40,17 +40,19 @@ def run(env, policy, seed, steps):
     seed=st.integers(0, 2**16),
     corner_follows=st.booleans(),
     lifelong=st.booleans(),
+    moves=st.sampled_from(["grid", "rotate"]),
 )
 def test_traffic_grants_every_plan_on_any_floor(
-    rows, cols, shelf_bits, robots, seed, corner_follows, lifelong
+    rows, cols, shelf_bits, robots, seed, corner_follows, lifelong, moves
 ):
+    """Four-direction and turning robots alike."""
     cells = [["#" if (shelf_bits >> (r * 7 + c)) & 1 and (r + c) % 3 else "."
               for c in range(cols)] for r in range(rows)]  # fmt: skip
     cells[0][0] = "S"
     try:
         env = fleet.parallel_env(
             num_robots=robots, layout=["".join(row) for row in cells], starts="random",
-            on_delivery="new_package" if lifelong else "park", max_cycles=40,
+            on_delivery="new_package" if lifelong else "park", max_cycles=40, moves=moves,
             **({} if corner_follows else BIG_ROBOT),
         )  # fmt: skip
     except ValueError:  # too small for the fleet
@@ -172,8 +174,9 @@ def test_throughput_on_the_kiva_warehouse_beats_the_published_figures(robots, ta
     assert result.throughput >= target
 
 
-def plans_digest(seed):
-    env = fleet.parallel_env(num_robots=60, layout="warehouse", lifelong=True, max_cycles=50)
+def plans_digest(seed, moves="grid"):
+    env = fleet.parallel_env(num_robots=60, layout="warehouse", lifelong=True, max_cycles=50,
+                             moves=moves)  # fmt: skip
     policy = pibt_policy(seed)
     observations, infos = env.reset(seed=seed)
     digest = hashlib.sha256()
@@ -296,32 +299,6 @@ def test_two_robots_pass_each_other_out_of_a_pocket_left_by_parked_robots(corner
 
 
 # ------------------------------------------------------------------ turning robots
-@given(
-    rows=st.integers(2, 7),
-    cols=st.integers(2, 7),
-    shelf_bits=st.integers(0, 2**49 - 1),
-    robots=st.integers(1, 12),
-    seed=st.integers(0, 2**16),
-    corner_follows=st.booleans(),
-    lifelong=st.booleans(),
-)
-def test_traffic_grants_every_plan_of_turning_robots_on_any_floor(
-    rows, cols, shelf_bits, robots, seed, corner_follows, lifelong
-):
-    cells = [["#" if (shelf_bits >> (r * 7 + c)) & 1 and (r + c) % 3 else "."
-              for c in range(cols)] for r in range(rows)]  # fmt: skip
-    cells[0][0] = "S"
-    try:
-        env = fleet.parallel_env(
-            num_robots=robots, layout=["".join(row) for row in cells], starts="random",
-            on_delivery="new_package" if lifelong else "park", max_cycles=40, moves="rotate",
-            **({} if corner_follows else BIG_ROBOT),
-        )  # fmt: skip
-    except ValueError:  # too small for the fleet
-        return
-    assert run(env, pibt_policy(seed), seed, 40) == 0
-
-
 def test_turning_robots_keep_the_kiva_warehouse_moving_and_never_strand_a_robot():
     """Lifelong, 256 steps, 192 turning robots: every robot delivers (no deadlock), no
     move is refused, and the fleet delivers well above half the four-direction one's
@@ -334,22 +311,9 @@ def test_turning_robots_keep_the_kiva_warehouse_moving_and_never_strand_a_robot(
     assert (env.deliveries > 0).all()
 
 
-def turning_plans_digest(seed):
-    env = fleet.parallel_env(num_robots=60, layout="warehouse", lifelong=True, max_cycles=50,
-                             moves="rotate")  # fmt: skip
-    policy = pibt_policy(seed)
-    observations, infos = env.reset(seed=seed)
-    digest = hashlib.sha256()
-    for _ in range(50):
-        actions = policy(env, observations, infos)
-        digest.update(np.array([actions[a] for a in env.possible_agents]).tobytes())
-        observations, _, _, _, infos = env.step(actions)
-    return digest.hexdigest()
-
-
 def test_turning_plans_are_bit_identical_across_processes(run_python):
-    here = turning_plans_digest(3)
-    script = "from tests.rules.test_planning import turning_plans_digest as d; print(d(3))"
+    here = plans_digest(3, "rotate")
+    script = "from tests.rules.test_planning import plans_digest; print(plans_digest(3, 'rotate'))"
     assert run_python(script).strip() == here
 
 

@@ -42,6 +42,7 @@ One command line: its length is its options, its measures and its run folder.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import sys
 import time
@@ -612,6 +613,9 @@ def _run(
     from tqdm import tqdm
 
     record = None if env.instance is None else RunRecord(env.num_robots, turning=env.turning)
+    # The floor's and the fleet's long-lived objects (tens of thousands of cells on a large
+    # map) leave Python's full collections, which otherwise walk them and stall a step.
+    gc.freeze()
     # disable=None: tqdm switches itself off when stderr is not a terminal.
     with tqdm(total=args.steps, desc="simulating", unit="step",
               disable=True if args.quiet else None) as bar:  # fmt: skip
@@ -622,6 +626,8 @@ def _run(
             )  # fmt: skip
         except ValueError as error:  # a table's observation that does not fit, ...
             raise UsageError(str(error).splitlines()[0]) from None
+        finally:
+            gc.unfreeze()
     return result, frames, record
 
 

@@ -35,6 +35,7 @@ from warehouse_phys.physics.batched import BatchedPhysicsWorld
 from warehouse_phys.rules.batched import step_rewards
 from warehouse_phys.rules.distances import DistanceMaps
 from warehouse_phys.rules.errands import ErrandList, errand_list
+from warehouse_phys.rules.grid import refuse_durations
 from warehouse_phys.rules.headings import MOVE_MODELS, TURN_ACTIONS, Heading, joint_grants
 from warehouse_phys.rules.instances import LorrInstance, as_instance
 from warehouse_phys.rules.layouts import make_grid, suggested_time_limit
@@ -277,6 +278,7 @@ class WarehouseFleetEnv(ParallelEnv):
             lifelong = True
             num_robots = self.instance.team_size if num_robots is None else num_robots
         num_robots = 2 if num_robots is None else num_robots
+        refuse_durations(num_robots=num_robots, max_cycles=max_cycles)
         if isinstance(num_robots, bool) or not isinstance(num_robots, (int, np.integer)):
             raise TypeError(f"num_robots must be an integer, got {num_robots!r}")
         if num_robots < 1:
@@ -307,8 +309,9 @@ class WarehouseFleetEnv(ParallelEnv):
         if observation == "global" and num_robots > MAX_GLOBAL_OBSERVATION_ROBOTS:
             raise ValueError(
                 f"observation='global' takes at most {MAX_GLOBAL_OBSERVATION_ROBOTS} robots "
-                f"(each robot's copy holds 4 numbers per robot: {num_robots} robots would need "
-                f"{32 * num_robots**2 / 2**20:,.0f} MiB a step); use 'local' or 'neighbours'"
+                f"(each robot's copy holds 4 numbers per robot: {num_robots:,} robots would need "
+                f"{32 * int(num_robots) ** 2 / 2**20:,.0f} MiB a step); use 'local' or "
+                "'neighbours'"
             )
         self.grid = (
             make_grid(grid_rows, grid_cols, layout) if self.instance is None else self.instance.grid

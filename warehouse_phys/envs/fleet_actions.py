@@ -33,7 +33,10 @@ class FleetActions:
             )
         # The usual case first: every live robot, in order, with a plain integer.
         if list(actions) == agents and set(map(type, actions.values())) <= _INTEGER_TYPES:
-            values = np.fromiter(actions.values(), np.int64, len(actions))
+            try:
+                values = np.fromiter(actions.values(), np.int64, len(actions))
+            except OverflowError:  # beyond 64 bits: refused below, robot by robot
+                values = np.full(len(actions), self.count, dtype=np.int64)
             if not np.count_nonzero(values.view(np.uint64) >= self.count):  # negatives: huge
                 if len(values) == self.num_robots:
                     return values
@@ -60,6 +63,8 @@ class FleetActions:
         top = self.wait
         if isinstance(action, (bool, np.bool_)) or not is_integer:
             raise TypeError(f"{agent}'s action must be an integer 0..{top}, got {action!r}")
+        if np.ma.is_masked(action):
+            raise ValueError(f"{agent}'s action is masked: it has no value")
         if not 0 <= int(action) < self.count:
             raise ValueError(f"{agent}'s action must be 0..{top} ({top} is WAIT), got {action!r}")
         return int(action)

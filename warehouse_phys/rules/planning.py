@@ -98,19 +98,21 @@ class PIBT:
     standoff; the swap operation is not made there).
 
     **Turning robots** (``moves="rotate"``, :mod:`warehouse_phys.rules.headings`): PIBT
-    over ``(cell, heading)``. A robot's candidates are the cell ahead (a forward move)
-    and its own cell (a turn or a wait), ranked by the turn-aware distance of the state
-    each leads to: ``h(cell, heading)``, the fewest turns to face a neighbour plus one
-    move plus that neighbour's distance to the goal (0 on the goal), from the same
-    distance maps; ties go to the forward move. The recursion is PIBT's own
-    (:meth:`_pibt`): a robot in the way inherits the priority and must drive forward out
-    of it, or the planner backtracks. A robot that stays turns towards its best
-    neighbour, unless it stands in the way of a robot of higher priority that wanted its
-    cell: then it turns towards the free neighbour nearest its own goal, so that the
-    next step it can be pushed on (priority inheritance over the steps a turn takes).
-    The swap operation is not made (it would pull a robot backwards). Every plan passes
-    the traffic rule before it is returned, so it is granted in full; PIBT's
-    reachability guarantee is not claimed for turning robots.
+    over ``(cell, heading)``. The candidates are the neighbouring cells and staying, as
+    above, ranked by a turn-aware distance: a cell costs the quarter turns to face it,
+    the move, and its distance to the goal; staying costs a step more than the best
+    cell (nothing on the goal). The recursion is PIBT's own (:meth:`_pibt`): a robot in
+    the way inherits the priority and must move, or the planner backtracks. A robot
+    whose planned cell is ahead drives forward; one whose planned cell is beside or
+    behind it turns towards it (on the shorter side) and keeps that cell as its
+    *commitment*: while it turns, it plans first each step, for that cell alone (the
+    cell it needs stays free for it, and robots in it are pushed on); a commitment is
+    dropped once reached, or when the robot moved, got another goal or could not keep
+    the cell. A robot that stays turns towards its best candidate. The swap operation is
+    not made (it would pull a robot backwards). Every plan passes the traffic rule before
+    it is returned (a forward move behind a robot that turns instead of leaving waits),
+    so it is granted in full; PIBT's reachability guarantee is not claimed for turning
+    robots (no robot stayed stuck in the tests and benchmarks).
 
     Args:
         grid: The floor.
@@ -290,20 +292,6 @@ class PIBT:
         for i, row in zip(moving.tolist(), ranked.tolist(), strict=True):
             ranked_of[i] = row
         return ranked_of
-
-    def _lookup(
-        self, cells: np.ndarray, goals: np.ndarray, moving: np.ndarray, distances: DistanceMaps
-    ) -> np.ndarray:
-        """The distances of ``cells`` to ``goals`` (rows by moving robot), round the held
-        cells except for a robot whose goal is one (that one on the plain floor)."""
-        if distances is self.distances:
-            return distances.lookup(cells, goals)
-        out = np.empty(cells.shape, dtype=np.int64)
-        onto_held = self._plain[moving]
-        for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
-            if rows.any():
-                out[rows] = maps.lookup(cells[rows], goals[rows])
-        return out
 
     def _count_turns(
         self, distance: np.ndarray, headings: np.ndarray, at_goal: np.ndarray

@@ -39,6 +39,11 @@ the centres of two robots in a granted step come no closer than [cells]:
   goes and the others wait) or that bumps back towards it: ``1 - e``;
 - two robots entering neighbouring cells head-on, or bumping back to back: ``1 - 2e``.
 
+A turning robot (:mod:`warehouse_phys.rules.headings`) that turns or waits holds its
+centre as a waiting robot does (the controller check measures how far a turn moves the
+centre and counts it as sideways drift ``s``), and its forward move is a free move
+along its heading, so the same distances hold for turning fleets.
+
 Robots that start farther apart, or diagonally, stay farther apart. So discs of
 diameter ``d`` never touch when ``1 - 2e >= d + CLEARANCE_MARGIN`` and, where corner
 follows are granted, ``sqrt(0.5) - 2s >= d + CLEARANCE_MARGIN``: :func:`check_clearance`
