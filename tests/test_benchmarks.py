@@ -109,3 +109,23 @@ def test_benchmark_refuses_an_empty_budget():
     result = run_bench("--rounds", "0")
     assert result.returncode == 2
     assert "--rounds must be at least 1" in result.stderr
+
+
+@pytest.mark.slow
+def test_the_lorr_benchmark_reports_our_figure_beside_the_published_one(tmp_path):
+    if not (ROOT.parent / "shared" / "lorr").is_dir():
+        pytest.skip("LoRR instances not found beside the checkout (../shared/lorr)")
+    result = subprocess.run(
+        [sys.executable, "benchmarks/lorr.py", "--quick", "--only", "EI23-200 rotate",
+         "--json", str(tmp_path / "lorr.json")],
+        cwd=ROOT, capture_output=True, text=True,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert re.search(
+        r"EI23-200 rotate +200 robots +5 steps: .* errands/step, .* 0 refused", result.stdout
+    )
+    (run,) = json.loads((tmp_path / "lorr.json").read_text())["runs"]
+    assert run["moves"] == "rotate"
+    assert run["robots"] == 200
+    assert run["peak_rss_mib"] > 0
+    assert run["step_s_max"] >= run["step_s_median"] > 0
