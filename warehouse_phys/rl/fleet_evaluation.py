@@ -28,7 +28,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
-from warehouse_phys.rules.headings import MOVE_HEADINGS, TurnAction, turn_towards
+from warehouse_phys.rules.headings import TurnAction, facing_move, turn_towards
 from warehouse_phys.rules.traffic import WAIT, neighbour_table
 
 #: A fleet policy: the environment, every live robot's observation and last info -> actions.
@@ -65,7 +65,7 @@ def shortest_path_policy(
     actions = np.where(good.any(axis=1), good.argmax(axis=1), WAIT)
     if env.robot_headings is not None:  # turning robots: face the move, then make it
         headings = env.robot_headings[robots]
-        wanted = np.where(actions == WAIT, headings, MOVE_HEADINGS[np.minimum(actions, WAIT - 1)])
+        wanted = facing_move(actions, headings)
         actions = turn_towards(headings, wanted)
         actions[(wanted == headings) & good.any(axis=1)] = TurnAction.FORWARD
     return dict(zip(agents, actions.tolist(), strict=True))

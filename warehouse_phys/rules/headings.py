@@ -109,6 +109,13 @@ def turn_towards(headings: np.ndarray, wanted: np.ndarray) -> np.ndarray:
                      TurnAction.COUNTERCLOCKWISE], dtype=np.int64)[difference]  # fmt: skip
 
 
+def facing_move(actions: np.ndarray, headings: np.ndarray) -> np.ndarray:
+    """The heading that makes each grid action (0..3) a forward move; a robot whose
+    action is :data:`~warehouse_phys.rules.traffic.WAIT` keeps its ``headings``."""
+    actions = np.asarray(actions)
+    return np.where(actions == WAIT, headings, MOVE_HEADINGS[np.minimum(actions, WAIT - 1)])
+
+
 def ahead_cells(grid: WarehouseGrid, here: np.ndarray, headings: np.ndarray) -> np.ndarray:
     """The cell index ahead of each robot, or its own cell where a wall or a shelf is."""
     return neighbour_table(grid)[here, HEADING_MOVES[headings]]

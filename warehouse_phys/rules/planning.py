@@ -36,6 +36,7 @@ from warehouse_phys.rules.headings import (
     MOVE_HEADINGS,
     MOVE_MODELS,
     TurnAction,
+    facing_move,
     quarter_turns,
     turn_towards,
     turning_moves,
@@ -346,7 +347,7 @@ class PIBT:
         target = np.where(stays & (best != NIL), best, planned)  # staying: face the best cell
         target[~movable] = here[~movable]
         move = np.array(self._action_of, dtype=np.int64)[target - here + self.grid.cols]
-        wanted = np.where(move == WAIT, headings, MOVE_HEADINGS[np.minimum(move, WAIT - 1)])
+        wanted = facing_move(move, headings)
         actions = turn_towards(headings, wanted)
         facing = (wanted == headings) & ~stays & movable
         actions[facing] = TurnAction.FORWARD
