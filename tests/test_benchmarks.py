@@ -129,3 +129,26 @@ def test_the_lorr_benchmark_reports_our_figure_beside_the_published_one(tmp_path
     assert run["robots"] == 200
     assert run["peak_rss_mib"] > 0
     assert run["step_s_max"] >= run["step_s_median"] > 0
+
+
+def test_the_big_maps_benchmark_reports_ours_beside_the_reference(tmp_path):
+    """A smoke run: a generated floor with goals beyond the distance maps' room (guided),
+    and the warehouse map where the folder has it; every figure is reported."""
+    result = subprocess.run(
+        [sys.executable, "benchmarks/big_maps.py", "--quick", "--only",
+         "random-256-256-10,warehouse-large-140-500", "--json", str(tmp_path / "big.json")],
+        cwd=ROOT, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    runs = json.loads((tmp_path / "big.json").read_text())["results"]
+    generated = runs[0]
+    assert generated["map"] == "random-256-256-10"
+    assert generated["guided_goals"] > 0
+    assert generated["full_maps"] * 2 * (generated["free_cells"] + 1) <= 4 * 2**20
+    for run in runs:
+        assert run["robots"] == 300
+        assert run["first_step_ratio"] > 0
+        assert run["later_step_ratio"] > 0
+        assert run["peak_rss_mib"] > 0
+    if (ROOT.parent / "shared" / "maps" / "warehouse-large-140-500.map").exists():
+        assert [run["map"] for run in runs] == ["random-256-256-10", "warehouse-large-140-500"]

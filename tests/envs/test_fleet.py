@@ -530,3 +530,62 @@ def test_pettingzoos_suites_pass_with_onehot_observations(observation):
     pettingzoo_quietly(parallel_api_test, fleet.parallel_env(**kwargs), num_cycles=100)
     pettingzoo_quietly(parallel_seed_test, functools.partial(fleet.parallel_env, **kwargs), 40)
     pettingzoo_quietly(api_test, fleet.env(**kwargs), num_cycles=60)
+
+
+# ------------------------------------------------ integers beyond int64 (issue 32)
+@pytest.mark.parametrize(
+    ("actions", "message"),
+    [
+        ({"robot_0": 10**5000, "robot_1": 1}, r"^robot_0's action must be 0..4 \(4 is WAIT\), "
+         r"got an integer of 16610 bits$"),
+        ({"robot_0": 1, "robot_1": -(10**5000)}, r"^robot_1's action must be 0..4 \(4 is WAIT\), "
+         r"got a negative integer of 16610 bits$"),
+    ],
+)  # fmt: skip
+def test_actions_with_thousands_of_digits_are_refused_by_robot(actions, message):
+    env = fleet.parallel_env(num_robots=2)
+    env.reset(seed=0)
+    before = env.state()
+    with pytest.raises(ValueError, match=message):
+        env.step(actions)
+    assert np.array_equal(env.state(), before)
+    assert env.steps == 0
+
+
+@pytest.mark.parametrize("keyword", ["num_robots", "max_cycles"])
+def test_counts_with_thousands_of_digits_are_refused_by_name(keyword):
+    with pytest.raises(ValueError, match=f"^{keyword} must be at least 1, got a negative integer"):
+        fleet.parallel_env(**{keyword: -(10**5000)})
+
+
+def test_a_fleet_with_more_packages_than_its_distance_maps_hold_runs_on_guide_paths():
+    """Distance maps bounded to two: the other robots' packages are guided (the fleet once
+    refused such a fleet at every reset). Deliveries happen, the maps stay in their
+    bound, every robot's ``optimal_steps`` is at least its true distance, and exactly it
+    for the robots whose packages have maps."""
+    from warehouse_phys.rules.distances import DistanceMaps
+    from warehouse_phys.rules.planning import pibt_policy
+
+    env = fleet.parallel_env(num_robots=12, layout="aisles", on_delivery="new_package",
+                             max_cycles=120)  # fmt: skip
+    probe = DistanceMaps(env.grid)
+    env.distances = DistanceMaps(env.grid, max_bytes=2 * probe._map_bytes)
+    with pytest.raises(ValueError, match="distances must be a DistanceMaps of this fleet"):
+        env.distances = DistanceMaps(WarehouseGrid(4, 5))
+    policy = pibt_policy(seed=0)
+    observations, infos = env.reset(seed=0)
+    delivered = 0
+    for _ in range(100):  # within the episode's 120 steps
+        observations, _, _, _, infos = env.step(policy(env, observations, infos))
+        delivered += sum(info["deliveries"] for info in infos.values())
+        cols = env.grid.cols
+        cells = env.robot_cells[:, 0] * cols + env.robot_cells[:, 1]
+        goals = env.package_cells[:, 0] * cols + env.package_cells[:, 1]
+        truth = probe.lookup(cells, goals)
+        optimal = np.array([infos[a]["optimal_steps"] for a in env.agents])
+        assert (optimal >= truth).all()
+        mapped = env.distances._row_of_goal[goals] >= 0
+        np.testing.assert_array_equal(optimal[mapped], truth[mapped])
+    assert env.distances.maps <= 2
+    assert env.distances.guided >= 8
+    assert delivered > 0

@@ -88,13 +88,141 @@ def test_the_maps_never_exceed_max_bytes_and_the_least_recently_used_go_first():
     assert maps.nbytes <= maps.max_bytes
 
 
-def test_a_request_for_more_goals_than_fit_is_refused_and_changes_nothing():
+def test_a_request_for_more_goals_than_fit_builds_what_fits_and_guides_the_rest():
     grid = WarehouseGrid.from_layout(["S...#", ".....", ".....", "....."])
     maps = DistanceMaps(grid, max_bytes=3 * 2 * 20)
     maps.prepare(np.array([6, 7]))
-    with pytest.raises(ValueError, match="max_bytes"):
-        maps.prepare(np.array([1, 2, 3, 5]))
-    assert sorted(g for g in maps._goal_of_row.tolist() if g >= 0) == [6, 7]
+    cells = np.array([0, 0, 0, 0])
+    goals = np.array([1, 2, 3, 5])
+    got = maps.lookup(cells, goals)
+    assert maps.maps == 3
+    assert maps.guided == 1
+    assert maps.nbytes <= maps.max_bytes
+    np.testing.assert_array_equal(got, _expected(grid, cells, goals))  # open ground: exact
+
+
+def _star(grid: WarehouseGrid, cell: int) -> np.ndarray:
+    """A robot's cell's four neighbours (itself where a move is blocked), then the cell: the
+    cells a planner asks about."""
+    row, col = divmod(cell, grid.cols)
+    return np.array([grid.move((row, col), a)[0] * grid.cols + grid.move((row, col), a)[1]
+                     for a in range(4)] + [cell])  # fmt: skip
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    rows=st.integers(3, 12),
+    cols=st.integers(3, 12),
+    density=st.floats(0.0, 0.35),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_guided_goals_walk_their_robots_home_on_upper_bounds_of_the_right_parity(
+    rows, cols, density, seed
+):
+    """With room for one map, a fleet's goals are guided: every answer is at least the true
+    distance and has its parity; the robot's own cell is answered within the guide path's
+    weight; the best neighbour is one move closer; and a robot that always takes the best
+    neighbour reaches its goal in the moves first answered."""
+    rng = np.random.default_rng(seed)
+    shelves = rng.random((rows, cols)) < density
+    shelves[0, 0] = False
+    layout = ["".join("#" if s else "." for s in row) for row in shelves]
+    try:
+        grid = WarehouseGrid.from_layout(layout)
+    except ValueError:
+        return
+    free = _free_cells(grid)
+    maps = DistanceMaps(grid, max_bytes=2 * (len(free) + 1))
+    if len(free) < 5:
+        return
+    robots = rng.choice(free, size=4)
+    goals = rng.choice(free, size=5, replace=False)  # one goal a robot: each its own group
+    maps.prepare(goals[4:])
+    goals = goals[:4]
+    stars = np.stack([_star(grid, int(cell)) for cell in robots])
+    targets = np.repeat(goals[:, None], 5, axis=1)
+    got = maps.lookup(stars, targets)
+    truth = _expected(grid, stars.ravel(), targets.ravel()).reshape(stars.shape)
+    reachable = truth < UNREACHABLE
+    assert (got == UNREACHABLE).tolist() == (~reachable).tolist()
+    assert (got[reachable] >= truth[reachable]).all()
+    assert ((got[reachable] - truth[reachable]) % 2 == 0).all()
+    here, here_truth = got[:, 4], truth[:, 4]
+    assert (here[reachable[:, 4]] <= np.ceil(here_truth[reachable[:, 4]] * 17 / 16)).all()
+    for i in np.flatnonzero(reachable[:, 4] & (here > 0)).tolist():
+        assert got[i, :4].min() == here[i] - 1
+        cell, moves = int(robots[i]), int(here[i])
+        for _ in range(moves):  # follow the best neighbour home: the answers count down
+            star = _star(grid, cell)
+            answers = maps.lookup(star, np.full(5, goals[i]))
+            assert answers[4] == moves
+            cell, moves = int(star[np.argmin(answers[:4])]), moves - 1
+        assert cell == goals[i]
+
+
+def test_a_guided_robot_pushed_off_its_path_gets_a_new_one_and_single_distances_leave_it():
+    grid = resolve_layout("aisles")
+    free = _free_cells(grid)
+    maps = DistanceMaps(grid, max_bytes=2 * (len(free) + 1))
+    mapped, goal, robot = int(free[0]), int(free[-1]), int(free[len(free) // 2])
+
+    def ask(cells: np.ndarray) -> np.ndarray:
+        """Look up cells towards the guided goal beside one query for the mapped one, which
+        takes the room of the one map (the lower goal gets the room)."""
+        goals = np.array([mapped, *[goal] * len(cells)])
+        return maps.lookup(np.array([robot, *cells]), goals)[1:]
+
+    first = ask(_star(grid, robot))
+    assert maps.maps == 1
+    assert maps.guided == 1
+    slot = maps._slot_of_goal[goal]
+    path = maps._pool[maps._path_start[slot] : maps._path_start[slot] + first[4] + 1].copy()
+    assert path[0] == maps._column[robot]
+    # Pushed one move aside: the path rejoins the old one where it passes beside.
+    cols = grid.cols
+    cell_of = np.flatnonzero(maps._column < maps._n_free)  # column -> cell
+    on_path = set(cell_of[path].tolist())
+    aside = next(c for c in _star(grid, robot)[:4].tolist()
+                 if c != robot and c not in on_path)  # fmt: skip
+    searches = []
+    search = maps._path_from
+    maps._path_from = lambda *args: searches.append(args) or search(*args)
+    moves = ask(_star(grid, aside))[4]
+    assert searches == []  # no search: the old path, rejoined
+    maps._path_from = search
+    spliced = maps._pool[maps._path_start[slot] : maps._path_start[slot] + moves + 1]
+    assert cell_of[spliced[0]] == aside
+    tail = cell_of[spliced[1:]].tolist()
+    assert tail == cell_of[path[len(path) - len(tail) :]].tolist()
+    assert abs(tail[0] // cols - aside // cols) + abs(tail[0] % cols - aside % cols) == 1
+    path = spliced.copy()
+    far = int(free[3])
+    truth = _expected(grid, np.array([far]), np.array([goal]))[0]
+    assert truth <= maps.distance(far, goal) <= np.ceil(truth * 17 / 16)  # a search of its own
+    again = maps._pool[maps._path_start[slot] : maps._path_start[slot] + len(path)]
+    np.testing.assert_array_equal(again, path)  # the robot's path stays
+    aside = ask(_star(grid, far))  # the robot is now far away: a new path from there
+    assert aside[4] == maps.distance(far, goal)
+    assert maps._path_moves[slot] == aside[4]
+    assert maps._pool[maps._path_start[slot]] == maps._column[far]
+
+
+def test_the_guide_paths_memory_follows_the_fleet_not_every_goal_it_had():
+    rng = np.random.default_rng(0)
+    shelves = rng.random((60, 60)) < 0.2
+    shelves[0, 0] = False
+    grid = WarehouseGrid.from_layout(["".join("#" if s else "." for s in r) for r in shelves])
+    free = np.array(sorted(r * 60 + c for r, c in grid.reachable))
+    maps = DistanceMaps(grid, max_bytes=2 * (len(_free_cells(grid)) + 1))
+    robots = rng.choice(free, size=8)
+    longest = 0
+    for _ in range(2000):  # 2,000 requests, each with eight fresh goals: 16,000 goals
+        goals = rng.choice(free, size=8)
+        longest = max(longest, int(maps.lookup(robots, goals).max()))
+    recent = 8 * 64  # the goals of the last GUIDE_STALE_REQUESTS requests
+    assert maps.guided <= len(maps._slot_goal)
+    assert len(maps._slot_goal) <= 2 * recent + 1024
+    assert maps.path_bytes <= 4 * 4 * recent * (longest + 1) + 40 * (2 * recent + 1024)
 
 
 def test_bad_arguments_are_refused():

@@ -4,7 +4,7 @@ import itertools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from warehouse_phys.rules.errands import (
@@ -159,6 +159,7 @@ def brute_force_nearest(robot_cells, task_cells, cols):
 @settings(max_examples=200)
 @given(robots=st.lists(st.integers(0, 99), max_size=20),
        tasks=st.lists(st.integers(0, 99), max_size=20))  # fmt: skip
+@example(robots=[0] * 7, tasks=[0, 0, 0, 0, 0, 29, 29, 92, 0])  # more ties than offers
 def test_the_nearest_pairing_is_the_greedy_nearest_matching(robots, tasks):
     choice = nearest_free_robot(np.array(robots, dtype=np.int64), np.array(tasks, np.int64), 10)
     assert choice.tolist() == brute_force_nearest(robots, tasks, 10)

@@ -1,6 +1,10 @@
 """The pure world model: actions, moves, target cells and sampling, optimal distances."""
 
 import ast
+import json
+import subprocess
+import sys
+import textwrap
 from collections import deque
 from pathlib import Path
 
@@ -9,6 +13,7 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
+from tests.memory import CAN_MEASURE
 from warehouse_phys import grid as grid_module
 from warehouse_phys.rules.grid import (
     ACTION_DELTAS,
@@ -319,10 +324,10 @@ def test_layout_targets_are_uniform():
 @pytest.mark.parametrize(
     ("rows", "cols", "error", "message"),
     [
-        (513, 4, ValueError, "grid_rows must be at most 512, got 513"),
-        (4, 10**6, ValueError, "grid_cols must be at most 512"),
-        (2**63, 2**63, ValueError, "grid_rows must be at most 512"),
-        (np.int64(600), 4, ValueError, "grid_rows must be at most 512"),
+        (2049, 4, ValueError, "grid_rows must be at most 2048, got 2049"),
+        (4, 10**6, ValueError, "grid_cols must be at most 2048"),
+        (2**63, 2**63, ValueError, "grid_rows must be at most 2048"),
+        (np.int64(3000), 4, ValueError, "grid_rows must be at most 2048"),
         ("7", 4, TypeError, "grid_rows must be an integer"),
     ],
 )
@@ -338,8 +343,8 @@ def test_the_largest_floor_is_built():
 
 
 def test_layouts_beyond_the_largest_floor_are_refused():
-    with pytest.raises(ValueError, match="the layout has 513 rows of 2 cells"):
-        WarehouseGrid.from_layout(["S."] + [".."] * 512)
+    with pytest.raises(ValueError, match="the layout has 2049 rows of 2 cells"):
+        WarehouseGrid.from_layout(["S."] + [".."] * 2048)
 
 
 def test_breadth_first_distances_match_a_plain_search_around_shelves():
@@ -427,3 +432,197 @@ def test_long_lists_of_cells_in_layout_errors_are_cut_short():
     ) as error:
         WarehouseGrid.from_layout(rows)
     assert len(str(error.value)) < 200
+
+
+# ------------------------------------------------------------------ floors as arrays
+def _bfs_map(grid, target):
+    """An independent oracle: every cell's distance to ``target`` by a plain search."""
+    rows = [["#" if cell in grid.shelves else "." for cell in row] for row in
+            [[(r, c) for c in range(grid.cols)] for r in range(grid.rows)]]  # fmt: skip
+    distances = [[-1] * grid.cols for _ in range(grid.rows)]
+    distances[target[0]][target[1]] = 0
+    queue = deque([target])
+    while queue:
+        row, col = queue.popleft()
+        for dr, dc in ACTION_DELTAS:
+            r, c = row + dr, col + dc
+            inside = 0 <= r < grid.rows and 0 <= c < grid.cols
+            if inside and rows[r][c] == "." and distances[r][c] < 0:
+                distances[r][c] = distances[row][col] + 1
+                queue.append((r, c))
+    return distances
+
+
+def test_shelves_and_reachable_cells_behave_as_the_frozensets_they_were():
+    grid = WarehouseGrid.from_layout(["S.#.", ".##.", "...#", "#.#."])
+    shelves = frozenset({(0, 2), (1, 1), (1, 2), (2, 3), (3, 0), (3, 2)})
+    assert grid.shelves == shelves
+    assert shelves == grid.shelves
+    assert grid.shelves != shelves - {(0, 2)}
+    assert list(grid.shelves) == sorted(shelves)  # row-major, as Cells
+    assert all(isinstance(cell, Cell) for cell in grid.shelves)
+    assert len(grid.shelves) == 6
+    assert bool(grid.shelves)
+    assert (0, 2) in grid.shelves
+    assert Cell(1, 1) in grid.shelves
+    assert (np.int64(3), np.int64(2)) in grid.shelves
+    for stranger in [(-1, 2), (0, -2), (4, 0), (0, 4), (0, 2, 1), "ab", 3, None, (0.0, 2.0)]:
+        assert stranger not in grid.shelves  # never wraps round, never raises
+    assert grid.shelves & {(0, 2), (0, 0)} == {(0, 2)}
+    assert {(0, 2), (0, 0)} - grid.shelves == {(0, 0)}
+    assert isinstance(grid.shelves | set(), frozenset)
+    assert grid.reachable.isdisjoint(grid.shelves)
+    assert (1, 3) not in grid.reachable  # free, but walled off
+    assert len(grid.reachable) == 7  # not (0, 3), (1, 3) or (3, 3)
+    assert grid.reachable == WarehouseGrid.from_layout(grid.layout).reachable
+    assert WarehouseGrid(3, 3).shelves == frozenset()
+    assert not WarehouseGrid(3, 3).shelves
+
+
+def test_target_cells_behave_as_the_tuple_they_were():
+    grid = WarehouseGrid.from_layout(["S.#.", "..#P", "P..."])
+    cells = ((1, 3), (2, 0))
+    assert grid.target_cells == cells
+    assert cells == grid.target_cells
+    assert grid.target_cells != cells[:1]
+    assert tuple(grid.target_cells) == cells
+    assert list(grid.target_cells) == list(cells)
+    assert grid.target_cells[0] == (1, 3)
+    assert isinstance(grid.target_cells[-1], Cell)
+    assert grid.target_cells[-1] == (2, 0)
+    assert grid.target_cells[:1] == ((1, 3),)
+    with pytest.raises(IndexError):
+        grid.target_cells[2]
+    assert (2, 0) in grid.target_cells
+    assert (0, 0) not in grid.target_cells
+    assert (-1, 3) not in grid.target_cells
+    assert "x" not in grid.target_cells
+    assert grid.target_cells.index((2, 0)) == 1
+    assert grid.target_cells.count((2, 0)) == 1
+    with pytest.raises(ValueError, match="not in the sequence"):
+        grid.target_cells.index((0, 1))
+    assert np.asarray(grid.target_cells).tolist() == [[1, 3], [2, 0]]
+    assert np.array(grid.target_cells, dtype=np.int64).reshape(-1, 2).shape == (2, 2)
+    assert grid.target_cells.indices.tolist() == [7, 8]
+    assert WarehouseGrid(3, 3).target_cells == ((1, 1), (1, 2), (2, 1), (2, 2))
+
+
+def test_the_arrays_are_the_views_and_read_only():
+    grid = WarehouseGrid.from_layout(["S.#.", ".##.", "..P#", "#.#."])
+    assert grid.free_mask.shape == grid.shelf_mask.shape == grid.reachable_mask.shape == (4, 4)
+    assert (grid.free_mask == ~grid.shelf_mask).all()
+    assert {tuple(c) for c in np.argwhere(grid.shelf_mask)} == set(grid.shelves)
+    assert {tuple(c) for c in np.argwhere(grid.reachable_mask)} == set(grid.reachable)
+    assert grid.target_indices.dtype == np.int64
+    assert grid.target_indices.tolist() == [r * 4 + c for r, c in grid.target_cells]
+    for values in (grid.free_mask, grid.shelf_mask, grid.reachable_mask, grid.target_indices):
+        with pytest.raises(ValueError, match="read-only"):
+            values[0] = 0
+
+
+def test_copies_and_pickles_keep_the_floor_and_its_arrays_read_only():
+    import copy
+    import pickle
+
+    grid = WarehouseGrid.from_layout(["S.#.", ".##.", "...P"])
+    grid.optimal_steps((0, 0), (2, 3))  # a cached distance map goes along
+    for again in (copy.deepcopy(grid), pickle.loads(pickle.dumps(grid))):
+        assert again.shelves == grid.shelves
+        assert again.reachable == grid.reachable
+        assert again.target_cells == grid.target_cells
+        assert again.optimal_steps((0, 1), (2, 3)) == grid.optimal_steps((0, 1), (2, 3))
+        assert not again.free_mask.flags.writeable
+        assert not again.shelves.mask.flags.writeable
+
+
+@given(layouts(), st.integers(0, 2**32 - 1), st.data())
+def test_excluding_a_cell_draws_as_the_list_without_it_did(layout, seed, data):
+    grid = WarehouseGrid.from_layout(layout)
+    exclude = data.draw(st.sampled_from([*grid.target_cells, (0, 0), (-1, 5)]))
+    rest = tuple(cell for cell in grid.target_cells if cell != exclude)
+    assume(rest)
+    ours, theirs = np.random.default_rng(seed), np.random.default_rng(seed)
+    for _ in range(5):  # the rule before the floor was arrays: one draw from the rest
+        assert grid.sample_target(ours, exclude) == rest[int(theirs.integers(len(rest)))]
+
+
+@given(layouts(), st.data())
+def test_distance_maps_match_a_plain_search_on_every_cell(layout, data):
+    grid = WarehouseGrid.from_layout(layout)
+    target = data.draw(st.sampled_from(sorted(grid.reachable)))
+    expected = _bfs_map(grid, target)
+    assert grid.distance_map(target) == expected
+    assert grid.distance_array(target).tolist() == expected
+    assert grid.distance_array(target).dtype == np.int32
+
+
+def test_an_open_floors_distance_array_is_manhattan():
+    grid = WarehouseGrid(3, 4)
+    assert grid.distance_array((1, 2)).tolist() == [[3, 2, 1, 2], [2, 1, 0, 1], [3, 2, 1, 2]]
+
+
+def test_distance_maps_of_a_large_maze_are_breadth_first_on_every_cell():
+    rng = np.random.default_rng(1)
+    walls = rng.random((1024, 1024)) < 0.2
+    walls[0, 0] = False
+    grid = WarehouseGrid.from_layout(["".join("#" if w else "." for w in row) for row in walls])
+    distances = grid.distance_array(grid.start)
+    assert (distances[~grid.reachable_mask] == -1).all()
+    # Every reached cell but the start is one move further than its nearest neighbour.
+    framed = np.pad(np.where(distances < 0, 2**30, distances), 1, constant_values=2**30)
+    nearest = np.minimum.reduce(
+        [framed[:-2, 1:-1], framed[2:, 1:-1], framed[1:-1, :-2], framed[1:-1, 2:]]
+    )
+    reached = grid.reachable_mask.copy()
+    reached[grid.start] = False
+    assert (distances[reached] == nearest[reached] + 1).all()
+    assert distances[grid.start] == 0
+    assert grid.optimal_steps((0, 0), grid.target_cells[-1]) == distances[grid.target_cells[-1]]
+
+
+# Builds a 2,048 x 2,048 floor with 10 % shelves in a fresh process and prints the peak
+# resident memory the build added (Linux's peak counter, reset just before) and its time.
+PEAK_OF_BUILDING = textwrap.dedent(
+    """
+    import gc, json, time
+    import numpy as np
+    from warehouse_phys.rules.grid import MAX_SIDE, WarehouseGrid
+
+    def status(field):
+        with open("/proc/self/status") as lines:
+            for line in lines:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1]) * 1024
+
+    WarehouseGrid.from_layout(["S.", ".#"])  # imports and first calls before the measuring
+    shelves = np.random.default_rng(0).random((MAX_SIDE, MAX_SIDE)) < 0.1
+    shelves[0, 0] = False
+    symbols = np.where(shelves, ord("#"), ord(".")).astype(np.uint8)
+    rows = [row.tobytes().decode("ascii") for row in symbols]
+    del shelves, symbols
+    gc.collect()
+    with open("/proc/self/clear_refs", "w") as clear:
+        clear.write("5")
+    before = status("VmRSS")
+    began = time.process_time()
+    grid = WarehouseGrid.from_layout(rows)
+    seconds = time.process_time() - began
+    print(json.dumps({"peak": status("VmHWM") - before, "held": status("VmRSS") - before,
+                      "seconds": seconds, "cells": grid.rows * grid.cols}))
+    """
+)
+
+
+@pytest.mark.skipif(not CAN_MEASURE, reason="resident memory is read from Linux's /proc")
+def test_the_largest_floor_builds_in_little_memory_per_cell():
+    """Before the floor was arrays, a 2,048 x 2,048 floor took about 220 bytes a cell
+    (Python objects for every cell) and 17 s; now about 16 bytes and 0.1 s."""
+    result = subprocess.run(
+        [sys.executable, "-c", PEAK_OF_BUILDING], capture_output=True, text=True,
+        timeout=120, check=True,
+    )  # fmt: skip
+    figures = json.loads(result.stdout)
+    assert figures["cells"] == MAX_SIDE**2 == 2048**2
+    assert figures["peak"] / figures["cells"] < 32, figures  # bytes a cell, at the peak
+    assert figures["held"] / figures["cells"] < 24, figures  # bytes a cell, kept
+    assert figures["seconds"] < 5, figures

@@ -2,9 +2,11 @@
 
 import ast
 import os
+import re
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
@@ -12,7 +14,7 @@ from hypothesis import strategies as st
 import warehouse_phys
 from warehouse_phys import layouts as layouts_module
 from warehouse_phys.files.atomic import temporary_files
-from warehouse_phys.rules.grid import WarehouseGrid
+from warehouse_phys.rules.grid import MAX_SIDE, WarehouseGrid
 from warehouse_phys.rules.layouts import (
     PRESETS,
     preset_ids,
@@ -391,3 +393,91 @@ def test_maps_are_written_atomically(tmp_path):
         layouts_module.write_movingai(WarehouseGrid(2, 2), tmp_path / "taken.map")
     assert temporary_files(tmp_path, "floor.map") == []
     assert temporary_files(tmp_path, "taken.map") == []
+
+
+# -------------------------------------------------- maps up to 2,048 x 2,048 (issue 32)
+def random_floor(rows, cols, seed=0, share=0.1):
+    """A ``rows`` x ``cols`` floor with about ``share`` of its cells shelves, as layout rows."""
+    shelves = np.random.default_rng(seed).random((rows, cols)) < share
+    shelves[0, 0] = False
+    symbols = np.where(shelves, ord("#"), ord(".")).astype(np.uint8)
+    return [row.tobytes().decode("ascii") for row in symbols]
+
+
+def test_the_largest_floors_are_written_and_read_back(tmp_path):
+    import time
+
+    grid = WarehouseGrid.from_layout(random_floor(MAX_SIDE, MAX_SIDE))
+    began = time.process_time()
+    path = layouts_module.write_movingai(grid, tmp_path / "big.map")
+    again = layouts_module.read_movingai(path)
+    assert time.process_time() - began < 10  # generous: about 1 s here
+    assert MAX_SIDE == 2048
+    assert path.stat().st_size == len("type octile\nheight 2048\nwidth 2048\nmap\n") + 2048 * 2049
+    assert (again.rows, again.cols) == (2048, 2048)
+    assert np.array_equal(again.shelf_mask, grid.shelf_mask)
+    assert np.array_equal(again.target_indices, grid.target_indices)
+
+
+@pytest.mark.parametrize(("height", "width"), [(3, 1491), (656, 3), (1912, 2), (2, 2048)])
+def test_maps_wider_or_taller_than_the_old_limit_are_read(tmp_path, height, width):
+    text = f"type octile\nheight {height}\nwidth {width}\nmap\n" + ("." * width + "\n") * height
+    grid = layouts_module.read_movingai(write(tmp_path, text))
+    assert (grid.rows, grid.cols) == (height, width)
+    assert len(grid.reachable) == height * width
+
+
+@pytest.mark.parametrize(
+    ("size", "message"),
+    [
+        ("height 2049\nwidth 4", "line 2: height must be 1 to 2048 (the largest floor), got 2049"),
+        ("height 3\nwidth 99999", "line 3: width must be 1 to 2048 (the largest floor), got 99999"),
+        ("height -0000000000003\nwidth 4", "line 2: height must be 1 to 2048"),
+        ("height 0000\nwidth 4", "line 2: height must be 1 to 2048"),
+    ],
+)
+def test_map_sizes_beyond_the_largest_floor_are_refused_by_the_header(tmp_path, size, message):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        layouts_module.read_movingai(write(tmp_path, f"type octile\n{size}\nmap\n....\n"))
+
+
+def test_sizes_with_leading_zeros_are_read(tmp_path):
+    text = "type octile\nheight 0000000000003\nwidth +00000000000000000004\nmap\n"
+    text += MAP_TEXT.split("map\n", 1)[1]
+    grid = layouts_module.read_movingai(write(tmp_path, text))
+    assert (grid.rows, grid.cols) == (3, 4)
+    assert grid.shelves == {(0, 0), (1, 1)}
+
+
+@pytest.mark.parametrize(
+    ("name", "height", "width", "extra"),
+    [("orz900d.map", 3, 1491, 5000), ("scene.map", 1912, 2, 2 * 1_000_000)],
+)
+def test_a_file_longer_than_its_headers_map_is_refused_with_the_headers_size(
+    tmp_path, name, height, width, extra
+):
+    text = f"type octile\nheight {height}\nwidth {width}\nmap\n" + ("." * width + "\n") * height
+    path = write(tmp_path, text + "." * extra, name)
+    with pytest.raises(ValueError, match=f"longer than a map of {height} x {width} cells") as error:
+        layouts_module.read_movingai(path)
+    assert str(error.value).startswith(f"{path}: {len(text) + extra:,} bytes, ")
+    assert "\n" not in str(error.value)
+    # Blank lines and spaces at the end, within the slack, are still read.
+    path.write_text(text + "\n" * 100)
+    assert layouts_module.read_movingai(path).rows == height
+
+
+def test_a_header_longer_than_any_header_is_refused(tmp_path):
+    path = write(tmp_path, "type " + "x" * (1 << 17) + "\nheight 2\nwidth 2\nmap\n..\n..\n")
+    with pytest.raises(ValueError, match=r"the header's 4 lines are longer than 65,536 bytes"):
+        layouts_module.read_movingai(path)
+
+
+def test_a_path_of_bytes_is_refused_naming_the_argument(tmp_path):
+    class BytesPath:
+        def __fspath__(self):
+            return b"/x.map"
+
+    for path in (b"/x.map", BytesPath(), 3, None):
+        with pytest.raises(TypeError, match=r"^path must be a str or an os\.PathLike of a str"):
+            layouts_module.read_movingai(path)

@@ -15,6 +15,7 @@ from warehouse_phys.rules.traffic import (
     corner_follows_are_safe,
     granted_moves,
     moves_refused_by_floor,
+    neighbour_table,
     resolve_moves,
 )
 
@@ -181,3 +182,30 @@ def test_the_rule_names_the_bumps_the_floor_refuses():
         assert grants.bumped.tolist() == expected
         assert moves_refused_by_floor(grid, here, actions, parked).tolist() == expected
         assert not (grants.bumped & grants.refused).any()  # the floor's, not traffic's
+
+
+@pytest.mark.parametrize(
+    "layout",
+    [["S.#..", "..#.#", "....#"], ["S.", "#."], ["S##.", "..#.", "#...", "..#."]],
+)  # fmt: skip
+def test_the_neighbour_table_is_the_grids_move_and_a_wait(layout):
+    grid = WarehouseGrid.from_layout(layout)
+    table = neighbour_table(grid)
+    assert not table.flags.writeable
+    for row in range(grid.rows):
+        for col in range(grid.cols):
+            cell = row * grid.cols + col
+            assert table[cell, WAIT] == cell
+            if grid.is_free((row, col)):
+                for action in range(4):
+                    r, c = grid.move((row, col), action)
+                    assert table[cell, action] == r * grid.cols + c
+
+
+def test_the_neighbour_table_of_the_largest_floor_is_built_from_its_mask():
+    grid = WarehouseGrid(2048, 2048)
+    table = neighbour_table(grid)
+    assert table.shape == (2048 * 2048, 5)
+    assert table[0].tolist() == [0, 2048, 1, 0, 0]
+    last = 2048 * 2048 - 1  # the bottom right corner: left and up only
+    assert table[last].tolist() == [last - 1, last, last, last - 2048, last]

@@ -22,7 +22,7 @@ from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from warehouse_phys.drawing.render import DEFAULT_CELL_PX, WarehouseRenderer, fleet_ansi_frame
-from warehouse_phys.envs.fleet_actions import FleetActions
+from warehouse_phys.envs.fleet_actions import FleetActions, number_text
 from warehouse_phys.envs.fleet_observations import (
     MAX_GLOBAL_OBSERVATION_ROBOTS,
     NEIGHBOUR_BITS,
@@ -183,7 +183,8 @@ class WarehouseFleetEnv(ParallelEnv):
     :attr:`on_floor`, :attr:`deliveries` ``(N,)``, :attr:`robot_headings` (turning
     robots), :attr:`steps`, :attr:`distances`, the floor's shortest-path distances
     to packages (one :class:`~warehouse_phys.rules.distances.DistanceMaps`, built as
-    packages appear), and an instance fleet's :attr:`errands`
+    packages appear; to bound its memory, set ``env.distances = DistanceMaps(env.grid,
+    max_bytes=...)`` before the first reset), and an instance fleet's :attr:`errands`
     (:class:`~warehouse_phys.rules.errands.ErrandList`: errands and tasks finished).
 
     ## Arguments
@@ -282,7 +283,7 @@ class WarehouseFleetEnv(ParallelEnv):
         if isinstance(num_robots, bool) or not isinstance(num_robots, (int, np.integer)):
             raise TypeError(f"num_robots must be an integer, got {num_robots!r}")
         if num_robots < 1:
-            raise ValueError(f"num_robots must be at least 1, got {num_robots}")
+            raise ValueError(f"num_robots must be at least 1, got {number_text(num_robots)}")
         if self.instance is not None and num_robots != self.instance.team_size:
             raise ValueError(
                 f"num_robots={num_robots} but the instance {self.instance.name} has teamSize "
@@ -330,7 +331,7 @@ class WarehouseFleetEnv(ParallelEnv):
         if isinstance(max_cycles, bool) or not isinstance(max_cycles, (int, np.integer)):
             raise TypeError(f"max_cycles must be an integer, got {max_cycles!r}")
         if max_cycles < 1:
-            raise ValueError(f"max_cycles must be at least 1, got {max_cycles}")
+            raise ValueError(f"max_cycles must be at least 1, got {number_text(max_cycles)}")
         self.max_cycles = int(max_cycles)
         # The physical parameters are checked in both twins: the robots' size decides
         # whether the rule grants corner follows.
@@ -483,6 +484,12 @@ class WarehouseFleetEnv(ParallelEnv):
         if self._distances is None:
             self._distances = DistanceMaps(self.grid)
         return self._distances
+
+    @distances.setter
+    def distances(self, maps: DistanceMaps) -> None:
+        if not isinstance(maps, DistanceMaps) or maps.grid is not self.grid:
+            raise ValueError("distances must be a DistanceMaps of this fleet's grid")
+        self._distances = maps
 
     def observation_space(self, agent: str) -> spaces.MultiDiscrete | spaces.Box:
         """The observation space of ``agent`` (the same object on every call)."""
@@ -696,19 +703,12 @@ class WarehouseFleetEnv(ParallelEnv):
         gaps: np.ndarray | None,
     ) -> dict[str, dict[str, Any]]:
         all_live = len(live) == self.num_robots  # no copies in the usual case
-        if not self.grid.shelves:  # an open floor: Manhattan distances
-            cells = self._cells if all_live else self._cells[live]
-            packages = self._packages if all_live else self._packages[live]
-            apart = np.abs(cells - packages)
-            optimal = apart[:, 0] + apart[:, 1]
-        elif all_live:
-            optimal = self.distances.lookup(self._here, self._package_index)
-        else:
-            optimal = self.distances.lookup(self._here[live], self._package_index[live])
+        here, packages, deliveries = self._here, self._package_index, self._deliveries
         if not all_live:
-            refused, deliveries = refused[live], self._deliveries[live]
-        else:
-            deliveries = self._deliveries
+            here, packages, refused, deliveries = (
+                a[live] for a in (here, packages, refused, deliveries)
+            )
+        optimal = self.distances.lookup(here, packages)
         extra: dict[str, list] = {}
         if self._errands is not None:
             extra["tasks"] = self._errands.tasks_per_robot[live].tolist()

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warehouse_phys.rules.grid import TARGET_REWARD, WarehouseGrid
+from warehouse_phys.rules.grid import ACTION_DELTAS, TARGET_REWARD, WarehouseGrid
 
 #: Largest table of distances kept whole [entries]: 16 MiB of int64. Larger floors
 #: compute distances as they go (cached per package on floors with shelves).
@@ -43,16 +43,17 @@ class BatchedRules:
         index = np.arange(n_cells, dtype=np.int64)
         self.rows, self.cols = index // n_cols, index % n_cols
         moves = np.repeat(index, 4).reshape(n_cells, 4)
-        for cell in grid.reachable:  # the only cells a robot can stand on
-            for action in range(4):
-                row, col = grid.move(cell, action)
-                moves[cell[0] * n_cols + cell[1], action] = row * n_cols + col
+        free, reachable = grid.free_mask.reshape(-1), grid.reachable_mask.reshape(-1)
+        for action, (d_row, d_col) in enumerate(ACTION_DELTAS):  # grid.move, a whole floor at once
+            to_row, to_col = self.rows + d_row, self.cols + d_col
+            to = to_row * n_cols + to_col
+            inside = (to_row >= 0) & (to_row < n_rows) & (to_col >= 0) & (to_col < n_cols)
+            allowed = inside & reachable  # robots stand on reachable cells only
+            allowed[allowed] = free[to[allowed]]
+            moves[allowed, action] = to[allowed]
         self.moves = moves.reshape(-1)
         self.start = grid.start[0] * n_cols + grid.start[1]
-        self.targets = np.array([r * n_cols + c for r, c in grid.target_cells], dtype=np.int64)
-        # The row of each target cell in the distance table (-1 for other cells).
-        self._slot = np.full(n_cells, -1, dtype=np.int64)
-        self._slot[self.targets] = np.arange(len(self.targets))
+        self.targets = np.array(grid.target_indices, dtype=np.int64)
         #: The slot of each target cell in :attr:`targets` (-1 for other cells).
         self.slot = np.full(n_cells, -1, dtype=np.int64)
         self.slot[self.targets] = np.arange(len(self.targets))
@@ -94,7 +95,7 @@ class BatchedRules:
 
     def _distance_row(self, target: int) -> np.ndarray:
         target_cell = (target // self.grid.cols, target % self.grid.cols)
-        return np.array(self.grid.distance_map(target_cell), dtype=np.int32).reshape(-1)
+        return self.grid.distance_array(target_cell).reshape(-1)
 
     def _cached_row(self, target: int) -> np.ndarray:
         row = self._distance_rows.get(target)

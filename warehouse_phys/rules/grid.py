@@ -3,7 +3,13 @@
 Every environment of the package follows these rules, so the grid twin and the
 physics-backed environment cannot drift apart. This module imports neither
 gymnasium, pymunk nor pygame: only numpy (for the random generator type and the
-floor's regions) and, for a layout that marks no start, scipy's region labelling.
+floor's masks) and, for a floor drawn as text, scipy's region labelling.
+
+A floor is held as arrays (a byte or so a cell; see :data:`MAX_SIDE`): boolean masks of
+its free, shelf and reachable cells and the indices of its package cells.
+:attr:`WarehouseGrid.shelves`, :attr:`~WarehouseGrid.reachable` and
+:attr:`~WarehouseGrid.target_cells` are read-only views of them that behave as the
+frozensets and the tuple of :class:`Cell` they once were.
 
 Its length is the world model itself, the one source of truth for every twin: split
 it and the rules would have two homes.
@@ -11,13 +17,17 @@ it and the rules would have two homes.
 
 from __future__ import annotations
 
+import array
 import functools
 import itertools
+import re
 from collections.abc import Iterator, Sequence
 from enum import IntEnum
-from typing import NamedTuple
+from typing import Any
 
 import numpy as np
+
+from warehouse_phys.rules.cells import Cell, CellSequence, CellSet, read_only
 
 
 class Action(IntEnum):
@@ -27,13 +37,6 @@ class Action(IntEnum):
     DOWN = 1
     RIGHT = 2
     UP = 3
-
-
-class Cell(NamedTuple):
-    """A cell of the floor; row 0 is the top row, column 0 the left column."""
-
-    row: int
-    col: int
 
 
 #: The (row, column) change of each action, indexed by the action's value.
@@ -55,13 +58,14 @@ TARGET_REWARD = 1.0
 
 #: Fewest rows and columns of a floor [cells]: the target sits outside row 0 and column 0.
 MIN_SIDE = 2
-#: Most rows and columns of a floor [cells]. The world model keeps a few objects per
-#: cell, so memory and build time grow with the area: a 512 x 512 floor builds in
-#: well under a second and holds about 100 MB.
-MAX_SIDE = 512
+#: Most rows and columns of a floor [cells]: the largest maps of the League of Robot
+#: Runners (1,912 x 1,800) fit. The world model keeps about 17 bytes a cell (three masks
+#: and a row of bytes for moves, a byte each, 8 bytes per package cell and the layout's
+#: text), so a 2,048 x 2,048 floor builds in about 0.1 s and holds about 70 MB.
+MAX_SIDE = 2048
 
 #: Distance maps kept for :meth:`WarehouseGrid.optimal_steps`, counted in cells
-#: (about 8 bytes each): about 16 MB, whatever the floor.
+#: (4 bytes each): about 8 MB, whatever the floor.
 DISTANCE_CACHE_CELLS = 2**21
 
 #: The symbols of a layout's text, one character per cell.
@@ -95,22 +99,30 @@ class WarehouseGrid:
         "_distance_cache_size",
         "_distances",
         "_free",
+        "_open_floor",
         "cols",
+        "free_mask",
         "layout",
         "reachable",
+        "reachable_mask",
         "rows",
+        "shelf_mask",
         "shelves",
         "start",
         "starts",
         "starts_marked",
         "target_cells",
+        "target_indices",
     )
 
     def __init__(self, rows: int, cols: int) -> None:
         rows = check_size("grid_rows", rows)
         cols = check_size("grid_cols", cols)
-        targets = tuple(Cell(r, c) for r in range(1, rows) for c in range(1, cols))
-        self._setup(rows, cols, frozenset(), START_CELL, targets, layout=None)
+        free = np.ones((rows, cols), dtype=bool)
+        self._setup(free, free, START_CELL, layout=None)  # an empty floor is connected
+        targets = np.zeros((rows, cols), dtype=bool)
+        targets[1:, 1:] = True
+        self._set_targets(np.flatnonzero(targets))
 
     @classmethod
     def from_layout(cls, layout: Sequence[str]) -> WarehouseGrid:
@@ -138,41 +150,55 @@ class WarehouseGrid:
                 first start cannot reach, ``P`` cells the robot cannot reach, or no cell at
                 all for a package.
         """
-        rows = _checked_layout(layout)
+        from scipy.ndimage import label  # imported here: an empty floor needs no regions
+
+        rows, symbols = _checked_layout(layout)
         width = len(rows[0])
-        starts = [Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == START]
-        start = starts[0] if starts else _unmarked_start(rows)
-        shelves = frozenset(
-            Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == SHELF
-        )
+        free = symbols != ord(SHELF)
+        # Regions of free cells connected by moves (4-connected), numbered in reading order.
+        regions, count = label(free)
+        marked = np.flatnonzero(symbols == ord(START))
+        if marked.size:
+            start = Cell(*divmod(int(marked[0]), width))
+        else:
+            start = _unmarked_start(symbols, regions, count)
         grid = cls.__new__(cls)
-        grid._setup(len(rows), width, shelves, start, (), layout=tuple(rows))
-        stranded = [tuple(cell) for cell in starts if cell not in grid.reachable]
-        if stranded:
+        grid._setup(free, regions == regions[start], start, layout=tuple(rows))
+        del regions  # 4 bytes a cell: gone before the package cells are found
+        stranded = marked[~grid.reachable_mask.flat[marked]]
+        if stranded.size:
             raise ValueError(
-                f"start cells {_cell_list(stranded)} cannot be reached from the start "
-                f"{tuple(start)}"
+                f"start cells {_cell_list(CellSequence(stranded, len(rows), width))} cannot be "
+                f"reached from the start {tuple(start)}"
             )
-        grid.starts = tuple(starts) or (start,)
-        grid.starts_marked = bool(starts)
-        targets = _package_cells(grid, rows)
-        grid.target_cells = targets
+        grid.starts = tuple(Cell(*divmod(i, width)) for i in marked.tolist()) or (start,)
+        grid.starts_marked = bool(marked.size)
+        grid._set_targets(_package_cells(grid, symbols))
         return grid
 
     def _setup(
         self,
-        rows: int,
-        cols: int,
-        shelves: frozenset[Cell],
+        free: np.ndarray,
+        reachable: np.ndarray,
         start: Cell,
-        target_cells: tuple[Cell, ...],
         *,
         layout: tuple[str, ...] | None,
     ) -> None:
-        self.rows = rows
-        self.cols = cols
-        #: The shelf cells; the robot can never stand on one.
-        self.shelves = shelves
+        self.rows, self.cols = rows, cols = free.shape
+        #: Which cells the robot may stand on (not shelves): a read-only ``(rows, cols)``
+        #: boolean array.
+        self.free_mask = read_only(free)
+        #: The shelf cells, ``~free_mask``: a read-only ``(rows, cols)`` boolean array.
+        self.shelf_mask = read_only(~free)
+        self._open_floor = bool(free.all())  # no shelves: distances are Manhattan's
+        #: The cells the robot can reach from the start: a read-only ``(rows, cols)``
+        #: boolean array.
+        self.reachable_mask = read_only(reachable)
+        #: The shelf cells, a read-only set of cells (:class:`CellSet`, equal to the
+        #: frozenset of them); the robot can never stand on one.
+        self.shelves = CellSet(self.shelf_mask)
+        #: Every cell the robot can reach from the start (a :class:`CellSet`).
+        self.reachable = CellSet(self.reachable_mask)
         #: Where the robot stands after every reset.
         self.start = start
         #: Every start cell of the layout in reading order, ``start`` first; ``(start,)``
@@ -182,29 +208,31 @@ class WarehouseGrid:
         #: plain floor. False for a layout without ``S`` (a benchmark map, say), whose
         #: start is the first cell of its largest region; a fleet there draws its starts.
         self.starts_marked = True
-        #: Every cell the target may be placed on, in row-major order. On the
-        #: empty floor: rows 1..R-1 and columns 1..C-1, so never the start's
-        #: row or column.
-        self.target_cells = target_cells
         #: The layout's text, or ``None`` for the empty floor.
         self.layout = layout
-        self._free = [[True] * cols for _ in range(rows)]
-        for row, col in shelves:
-            self._free[row][col] = False
-        self._distances: dict[Cell, list[list[int]]] = {}
+        # One bytes object per row, a byte a cell: ``move`` and ``is_free`` look cells up
+        # with two indexings and no numpy call, on the single robot's hot path.
+        flat = free.astype(np.uint8).tobytes()
+        self._free = [flat[row * cols : (row + 1) * cols] for row in range(rows)]
+        self._distances: dict[Cell, list[array.array]] = {}
         # Each cached distance map holds one entry per cell: keep at most about
         # DISTANCE_CACHE_CELLS entries in all, and at least a few maps.
         self._distance_cache_size = max(4, DISTANCE_CACHE_CELLS // (rows * cols))
-        #: Every cell the robot can reach from the start.
-        if shelves:
-            self.reachable = frozenset(
-                Cell(r, c)
-                for r, row in enumerate(self._distances_from(start))
-                for c, d in enumerate(row)
-                if d >= 0
-            )
-        else:  # an empty floor is connected
-            self.reachable = frozenset(Cell(r, c) for r in range(rows) for c in range(cols))
+
+    def _set_targets(self, indices: np.ndarray) -> None:
+        #: Every cell the target may be placed on, as read-only, ascending int64 indices
+        #: ``row * cols + col``.
+        self.target_indices = read_only(indices.astype(np.int64, copy=False))
+        #: Every cell the target may be placed on, in row-major order (a
+        #: :class:`CellSequence`, equal to the tuple of them). On the empty floor: rows
+        #: 1..R-1 and columns 1..C-1, so never the start's row or column.
+        self.target_cells = CellSequence(self.target_indices, self.rows, self.cols)
+
+    def __setstate__(self, state: tuple[None, dict[str, Any]]) -> None:
+        for name, value in state[1].items():
+            setattr(self, name, value)
+        for values in (self.free_mask, self.shelf_mask, self.reachable_mask, self.target_indices):
+            values.flags.writeable = False  # a copy or a pickle keeps them read-only
 
     def __repr__(self) -> str:
         if self.layout is None:
@@ -219,7 +247,7 @@ class WarehouseGrid:
     def is_free(self, cell: tuple[int, int]) -> bool:
         """Whether the robot may stand on ``cell``: on the floor and not a shelf."""
         row, col = cell
-        return 0 <= row < self.rows and 0 <= col < self.cols and self._free[row][col]
+        return 0 <= row < self.rows and 0 <= col < self.cols and self._free[row][col] == 1
 
     def move(self, cell: tuple[int, int], action: int) -> Cell:
         """The cell reached from ``cell`` by ``action``.
@@ -241,9 +269,12 @@ class WarehouseGrid:
         default start (0, 0) is never a target cell, so excluding it changes nothing.
         """
         cells = self.target_cells
-        if exclude is not None and exclude in cells:
-            cells = tuple(cell for cell in cells if cell != exclude)
-        return cells[int(rng.integers(len(cells)))]
+        skipped = cells._position(exclude) if exclude is not None else -1
+        if skipped < 0:
+            return cells[int(rng.integers(len(cells)))]
+        # The draw among the other cells, as if ``exclude`` were taken out of the list.
+        drawn = int(rng.integers(len(cells) - 1))
+        return cells[drawn + (drawn >= skipped)]
 
     def optimal_steps(self, cell: tuple[int, int], target: tuple[int, int]) -> int:
         """The fewest actions that take the robot from ``cell`` to ``target``.
@@ -254,13 +285,17 @@ class WarehouseGrid:
         Raises:
             ValueError: if ``target`` cannot be reached from ``cell``.
         """
-        if not self.shelves:
+        if self._open_floor:
             return abs(cell[0] - target[0]) + abs(cell[1] - target[1])
         distances = self._distances.get(target)
         if distances is None:
             if len(self._distances) >= self._distance_cache_size:
                 del self._distances[next(iter(self._distances))]  # the oldest
-            distances = self._distances[Cell(*target)] = self._distances_from(target)
+            # A row of 4-byte integers per row of cells (an array.array): half the memory of
+            # lists, and two indexings give a Python int at once, as fast as lists.
+            flat = self._distances_from(target)
+            distances = [array.array("i", row.tobytes()) for row in flat.reshape(self.rows, -1)]
+            self._distances[Cell(*target)] = distances
         steps = distances[cell[0]][cell[1]]
         if steps < 0:
             raise ValueError(f"{tuple(target)} cannot be reached from {tuple(cell)}")
@@ -270,29 +305,42 @@ class WarehouseGrid:
         """The fewest moves from every cell to ``target`` (``-1`` where it cannot be
         reached, shelves included), as ``rows`` lists of ``cols`` integers; the
         distances :meth:`optimal_steps` gives. A fresh list."""
-        if not self.shelves:
-            return [[abs(r - target[0]) + abs(c - target[1]) for c in range(self.cols)]
-                    for r in range(self.rows)]  # fmt: skip
-        return [list(row) for row in self._distances_from(target)]
+        return self.distance_array(target).tolist()
 
-    def _distances_from(self, origin: tuple[int, int]) -> list[list[int]]:
-        """Moves from ``origin`` to every cell (the same both ways); -1 where it cannot go."""
-        rows, cols, free = self.rows, self.cols, self._free
-        distances = [[-1] * cols for _ in range(rows)]
-        if not self.is_free(origin):
-            return distances
-        distances[origin[0]][origin[1]] = 0
-        frontier, steps = [(origin[0], origin[1])], 0
-        while frontier:  # one breadth-first layer at a time
+    def distance_array(self, target: tuple[int, int]) -> np.ndarray:
+        """:meth:`distance_map` as a fresh ``(rows, cols)`` int32 array (``-1`` where
+        ``target`` cannot be reached, shelves included)."""
+        if self._open_floor:
+            rows = np.abs(np.arange(self.rows, dtype=np.int32) - target[0])
+            cols = np.abs(np.arange(self.cols, dtype=np.int32) - target[1])
+            return rows[:, None] + cols[None, :]
+        return self._distances_from(target).reshape(self.rows, self.cols)
+
+    def _distances_from(self, origin: tuple[int, int]) -> np.ndarray:
+        """Moves from ``origin`` to every cell (the same both ways), flat int32; -1 where it
+        cannot go. A breadth-first search one layer at a time, each layer a few array
+        operations over a copy of the floor framed by shelves (no bounds checks)."""
+        width = self.cols + 2
+        unseen = np.zeros((self.rows + 2, width), dtype=bool)
+        unseen[1:-1, 1:-1] = self.free_mask
+        unseen = unseen.reshape(-1)
+        distances = np.full(unseen.size, -1, dtype=np.int32)
+        frontier = np.array([(origin[0] + 1) * width + origin[1] + 1], dtype=np.int64)
+        if self.is_free(origin):
+            unseen[frontier] = False
+            distances[frontier] = 0
+        else:
+            frontier = frontier[:0]
+        offsets = np.array([-1, width, 1, -width], dtype=np.int64)
+        steps = 0
+        while frontier.size:
             steps += 1
-            reached = []
-            for row, col in frontier:
-                for r, c in ((row, col - 1), (row + 1, col), (row, col + 1), (row - 1, col)):
-                    if 0 <= r < rows and 0 <= c < cols and free[r][c] and distances[r][c] < 0:
-                        distances[r][c] = steps
-                        reached.append((r, c))
+            reached = (frontier[:, None] + offsets).reshape(-1)
+            reached = np.unique(reached[unseen[reached]])
+            unseen[reached] = False
+            distances[reached] = steps
             frontier = reached
-        return distances
+        return distances.reshape(self.rows + 2, width)[1:-1, 1:-1].reshape(-1)
 
     def random_walk_finish_rate(self, steps: int) -> float:
         """The chance that uniformly random actions reach the target within ``steps`` actions.
@@ -382,10 +430,14 @@ def move_table(grid: WarehouseGrid) -> list[list[tuple[Cell, ...]]] | None:
 #: Most cells an error message lists; the rest are counted.
 LISTED_CELLS = 5
 
+#: Any character that is no layout symbol.
+_UNKNOWN_SYMBOL = re.compile(f"[^{re.escape(''.join(LAYOUT_SYMBOLS))}]")
 
-def _checked_layout(layout: Sequence[str]) -> list[str]:
-    """The rows of ``layout``, or the ``TypeError``/``ValueError`` of
-    :meth:`WarehouseGrid.from_layout` naming what is wrong and where."""
+
+def _checked_layout(layout: Sequence[str]) -> tuple[list[str], np.ndarray]:
+    """The rows of ``layout`` and its symbols as a ``(rows, cols)`` uint8 array of their
+    ASCII codes, or the ``TypeError``/``ValueError`` of :meth:`WarehouseGrid.from_layout`
+    naming what is wrong and where (checked a whole row or floor at a time, not per cell)."""
     if isinstance(layout, str) or not isinstance(layout, Sequence):
         raise TypeError(f"a layout is a list of strings, one per row, got {type(layout).__name__}")
     rows = list(layout)
@@ -399,46 +451,47 @@ def _checked_layout(layout: Sequence[str]) -> list[str]:
             f"the layout has {len(rows)} rows of {width} cells: the largest floor is "
             f"{MAX_SIDE} x {MAX_SIDE} cells"
         )
-    for r, row in enumerate(rows):
-        if len(row) != width:
-            raise ValueError(
-                f"layout rows must all have the same length: row {r} has {len(row)} "
-                f"cells, row 0 has {width}"
-            )
-        for c, symbol in enumerate(row):
-            if symbol not in LAYOUT_SYMBOLS:
-                known = ", ".join(f"{k!r} {v}" for k, v in LAYOUT_SYMBOLS.items())
-                raise ValueError(
-                    f"unknown layout symbol {symbol!r} at row {r}, column {c}; known: {known}"
-                )
-    return rows
-
-
-def _package_cells(grid: WarehouseGrid, rows: Sequence[str]) -> tuple[Cell, ...]:
-    """The cells of a layout's floor where packages may appear: its ``P`` cells off the
-    starts, or every cell the robot reaches off the starts; refused if there are none."""
-    width = len(rows[0])
-    start = grid.start
-    marked = [Cell(r, c) for r, row in enumerate(rows) for c, s in enumerate(row) if s == PACKAGE]
-    if marked:
-        unreachable = [tuple(cell) for cell in marked if cell not in grid.reachable]
-        if unreachable:
-            raise ValueError(
-                f"package cells {_cell_list(unreachable)} cannot be reached from the start "
-                f"{tuple(start)}"
-            )
-        targets = tuple(cell for cell in marked if cell not in grid.starts)
-    else:
-        targets = tuple(
-            Cell(r, c)
-            for r in range(len(rows))
-            for c in range(width)
-            if Cell(r, c) in grid.reachable and Cell(r, c) not in grid.starts
+    uneven = next((r for r, row in enumerate(rows) if len(row) != width), len(rows))
+    # Rows are read in order, so an unknown symbol above the first uneven row comes first.
+    unknown = _UNKNOWN_SYMBOL.search("".join(rows[:uneven]))
+    if unknown:
+        r, c = divmod(unknown.start(), width)
+        known = ", ".join(f"{k!r} {v}" for k, v in LAYOUT_SYMBOLS.items())
+        raise ValueError(
+            f"unknown layout symbol {unknown.group()!r} at row {r}, column {c}; known: {known}"
         )
-    if not targets:
+    if uneven < len(rows):
+        raise ValueError(
+            f"layout rows must all have the same length: row {uneven} has "
+            f"{len(rows[uneven])} cells, row 0 has {width}"
+        )
+    # Every symbol is ASCII now, so one byte is one cell.
+    symbols = np.frombuffer("".join(rows).encode("ascii"), dtype=np.uint8)
+    return rows, symbols.reshape(len(rows), width)
+
+
+def _package_cells(grid: WarehouseGrid, symbols: np.ndarray) -> np.ndarray:
+    """The indices of the cells of a layout's floor where packages may appear: its ``P``
+    cells off the starts, or every cell the robot reaches off the starts; refused if
+    there are none."""
+    marked = symbols == ord(PACKAGE)
+    starts = np.zeros(symbols.shape, dtype=bool)
+    starts[tuple(np.array(grid.starts).T)] = True
+    if marked.any():
+        unreachable = np.flatnonzero(marked & ~grid.reachable_mask)
+        if unreachable.size:
+            cells = CellSequence(unreachable, grid.rows, grid.cols)
+            raise ValueError(
+                f"package cells {_cell_list(cells)} cannot be reached from the start "
+                f"{tuple(grid.start)}"
+            )
+        targets = np.flatnonzero(marked & ~starts)
+    else:
+        targets = np.flatnonzero(grid.reachable_mask & ~starts)
+    if not targets.size:
         raise ValueError(
             f"the layout leaves no cell for the package: no floor other than the start "
-            f"{tuple(start)} can be reached"
+            f"{tuple(grid.start)} can be reached"
         )
     return targets
 
@@ -451,17 +504,12 @@ def _cell_list(cells: Sequence[tuple[int, int]]) -> str:
     return f"[{shown}{more}]"
 
 
-def _unmarked_start(rows: Sequence[str]) -> Cell:
+def _unmarked_start(symbols: np.ndarray, regions: np.ndarray, count: int) -> Cell:
     """The start of a layout that marks none: the first cell, in reading order, of the
     largest region of free cells connected by moves (the first such region on a tie).
     When the layout marks package cells, only the regions holding one compete, and the
-    start is the region's first cell that is not a package cell (if it has one)."""
-    from scipy.ndimage import label  # imported here: only floors without a start need it
-
-    # Symbols are checked to be ASCII layout symbols, so one byte is one cell.
-    symbols = np.frombuffer("".join(rows).encode("ascii"), dtype=np.uint8)
-    symbols = symbols.reshape(len(rows), len(rows[0]))
-    regions, count = label(symbols != ord(SHELF))  # 4-connected, numbered in reading order
+    start is the region's first cell that is not a package cell (if it has one).
+    ``regions`` numbers the regions in reading order, 1 to ``count`` (0 on shelves)."""
     if count == 0:
         raise ValueError("the layout has no floor: every cell is a shelf")
     sizes = np.bincount(regions.ravel(), minlength=count + 1)
@@ -471,7 +519,7 @@ def _unmarked_start(rows: Sequence[str]) -> Cell:
     region = regions.ravel() == chosen
     plain = region & ~packages.ravel()
     first = int(np.flatnonzero(plain if plain.any() else region)[0])
-    return Cell(first // len(rows[0]), first % len(rows[0]))
+    return Cell(*divmod(first, symbols.shape[1]))
 
 
 def check_size(name: str, value: object) -> int:

@@ -28,6 +28,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.rules.grid import (
     DEFAULT_COLS,
@@ -248,8 +250,13 @@ MOVINGAI_PASSABLE = frozenset(".GSE")
 MOVINGAI_BLOCKED = frozenset("@OTW")
 #: The endpoint symbol: package cells with ``packages="endpoints"``.
 MOVINGAI_ENDPOINT = "E"
-#: Largest map file read [bytes]: the largest floor's rows and a generous header.
-MAX_MAP_BYTES = (MAX_SIDE + 2) * MAX_SIDE + 4096
+#: Most bytes read for a map's four header lines, before the map's size is known.
+MAX_HEADER_BYTES = 1 << 16
+#: Bytes a map file may hold beyond its header and its rows (each row's symbols and a
+#: ``"\r\n"``): blank lines and stray spaces at its end.
+MAP_SLACK_BYTES = 4096
+#: Largest map file read [bytes]: the largest floor's rows, a header and the slack.
+MAX_MAP_BYTES = MAX_HEADER_BYTES + (MAX_SIDE + 2) * MAX_SIDE + MAP_SLACK_BYTES
 _HEADER = ("type", "height", "width", "map")
 
 
@@ -262,30 +269,34 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
     POGEMA's convention) lets packages appear on every free cell of the start's region
     but the start itself (the single robot's start is never a package cell; free cells
     cut off from it are never reached); ``"endpoints"`` only on ``E`` cells, which must
-    then all lie in one region. Maps larger than :data:`~warehouse_phys.rules.grid.MAX_SIDE`
-    cells a side are refused. No start is marked (``starts_marked`` is False): a fleet
+    then all lie in one region. Maps of 1 to :data:`~warehouse_phys.rules.grid.MAX_SIDE`
+    cells a side are read (sizes may have leading zeros); the header is read first, and
+    a file longer than a map of the header's size can be is refused. No start is marked
+    (``starts_marked`` is False): a fleet
     draws its starts, and the single robot starts on the first cell in reading order of the
     largest free region (with ``"endpoints"``: of the largest region holding an ``E``,
     on its first cell that is not an ``E``), as
     :meth:`~warehouse_phys.rules.grid.WarehouseGrid.from_layout` does for rows without ``S``.
 
     Raises:
+        TypeError: if ``path`` is not a ``str`` or an ``os.PathLike`` of one (a ``bytes``
+            path, say).
         ValueError: one line naming the file (quoted if its name holds a control character)
             and the line, or the map's lines for faults of the whole floor, for a path that
             is missing, a folder, a pipe or a device, a file that is unreadable, binary or
-            too large, a bad header, rows of the wrong number or
+            longer than its header's size allows, a bad header, rows of the wrong number or
             length, an unknown symbol, no free cell, no endpoint with
             ``packages="endpoints"``, or an unknown ``packages``.
     """
+    if not isinstance(path, (str, os.PathLike)) or not isinstance(os.fspath(path), str):
+        raise TypeError(
+            f"path must be a str or an os.PathLike of a str (a map file's path), got "
+            f"{type(path).__name__}"
+        )
     if packages not in ("all", "endpoints"):
         raise ValueError(f"packages must be 'all' or 'endpoints', got {packages!r}")
-    name, text = _map_text(Path(path))
-    # Lines end at "\n" only (and a "\r" before it is dropped): str.splitlines would also end
-    # them at form feeds and other controls, which then could not be reported as symbols.
-    lines = [line.removesuffix("\r") for line in text.split("\n")]
-    if lines[-1] == "":
-        lines.pop()  # the last line's end
-    height, width = _map_size(name, lines)
+    name, text, (height, width) = _map_text(Path(path))
+    lines = _text_lines(text)
     body = lines[len(_HEADER) :]
     while body and len(body) > height and not body[-1].strip():
         body.pop()  # blank lines at the end
@@ -307,20 +318,38 @@ def read_movingai(path: str | os.PathLike[str], packages: str = "all") -> Wareho
         raise ValueError(f"{where}: {error}") from None
 
 
-def _map_text(path: Path) -> tuple[str, str]:
-    """The name messages give ``path`` by, and the text of its file, or the
-    :func:`read_movingai` ``ValueError`` of a file that is no map's text."""
+def _text_lines(text: str) -> list[str]:
+    """The lines of a map's text. Lines end at "\\n" only (and a "\\r" before it is
+    dropped): str.splitlines would also end them at form feeds and other controls, which
+    then could not be reported as symbols."""
+    lines = [line.removesuffix("\r") for line in text.split("\n")]
+    if lines[-1] == "":
+        lines.pop()  # the last line's end
+    return lines
+
+
+def _map_text(path: Path) -> tuple[str, str, tuple[int, int]]:
+    """The name messages give ``path`` by, the text of its file and the header's height
+    and width, or the :func:`read_movingai` ``ValueError`` of a file that is no map's text.
+
+    The header is read first, so that a file too long for its map is refused with the
+    header's size, and no more than that map's bytes are ever read."""
     # The file's name as messages give it: quoted if it holds a line end or another control.
     name = str(path) if str(path).isprintable() else repr(str(path))
     if "\0" in str(path):
         raise ValueError(f"{name}: a path with a NUL character, not a map file")
     try:
-        mode = path.stat().st_mode
+        status = path.stat()
         # A pipe or a device: opening a pipe waits for a writer, a device may never end.
-        special = not stat.S_ISREG(mode) and not stat.S_ISDIR(mode)
+        special = not stat.S_ISREG(status.st_mode) and not stat.S_ISDIR(status.st_mode)
         if not special:
             with path.open("rb") as file:
-                data = file.read(MAX_MAP_BYTES + 1)
+                # A UTF-8 byte order mark, as some editors add, is dropped first.
+                data = file.read(MAX_HEADER_BYTES).removeprefix(b"\xef\xbb\xbf")
+                header = _header_bytes(name, data)
+                size = _map_size(name, _text_lines(_ascii(name, header)))
+                limit = len(header) + size[0] * (size[1] + 2) + MAP_SLACK_BYTES
+                data += file.read(max(0, limit + 1 - len(data)))  # one byte past: too long
     except FileNotFoundError:
         raise ValueError(f"{name}: no such map file") from None
     except IsADirectoryError:
@@ -329,14 +358,37 @@ def _map_text(path: Path) -> tuple[str, str]:
         raise ValueError(f"{name}: cannot read the map: {error.strerror or error}") from None
     if special:
         raise ValueError(f"{name}: not a regular file (a pipe or a device), not a map file")
-    if len(data) > MAX_MAP_BYTES:
+    if len(data) > limit:
         raise ValueError(
-            f"{name}: larger than any map of at most {MAX_SIDE} x {MAX_SIDE} cells "
-            f"({MAX_MAP_BYTES:,} bytes)"
+            f"{name}: {max(status.st_size, len(data)):,} bytes, longer than a map of "
+            f"{size[0]} x {size[1]} cells (the header's height x width) can be: at most "
+            f"{limit:,} bytes"
         )
-    data = data.removeprefix(b"\xef\xbb\xbf")  # a UTF-8 byte order mark, as some editors add
+    return name, _ascii(name, data), size
+
+
+def _header_bytes(name: str, data: bytes) -> bytes:
+    """The bytes of the header's lines at the start of ``data`` (all of it if the file ends
+    first), or the ``ValueError`` of a header longer than :data:`MAX_HEADER_BYTES`."""
+    end = 0
+    for _ in _HEADER:
+        found = data.find(b"\n", end)
+        if found < 0:
+            if len(data) < MAX_HEADER_BYTES:  # the file ends within the header
+                return data
+            raise ValueError(
+                f"{name}: the header's {len(_HEADER)} lines are longer than "
+                f"{MAX_HEADER_BYTES:,} bytes; not a MovingAI map"
+            )
+        end = found + 1
+    return data[:end]
+
+
+def _ascii(name: str, data: bytes) -> str:
+    """``data`` (a map file's first bytes) as text, or a ``ValueError`` naming the line
+    and column of its first byte that is not ASCII."""
     try:
-        text = data.decode("ascii")
+        return data.decode("ascii")
     except UnicodeDecodeError as error:
         line = data[: error.start].count(b"\n") + 1
         column = error.start - (data.rfind(b"\n", 0, error.start) + 1) + 1
@@ -344,7 +396,6 @@ def _map_text(path: Path) -> tuple[str, str]:
             f"{name}, line {line}, column {column}: byte {data[error.start]:#04x} is not ASCII "
             "text; not a MovingAI map"
         ) from None
-    return name, text
 
 
 def _map_size(name: str, lines: list[str]) -> tuple[int, int]:
@@ -357,12 +408,15 @@ def _map_size(name: str, lines: list[str]) -> tuple[int, int]:
             expected = "'map'" if key == "map" else f"'{key} <value>'"
             raise ValueError(f"{name}, line {number}: expected {expected}, got {got}")
         if key in ("height", "width"):
-            if not re.fullmatch(r"[+-]?[0-9]+", words[1]):
+            number_match = re.fullmatch(r"([+-]?)0*([0-9]+)", words[1])  # leading zeros dropped
+            if not number_match:
                 raise ValueError(
                     f"{name}, line {number}: {key} must be an integer, got {words[1][:40]!r}"
                 )
+            sign, digits = number_match.groups()
             # More digits than any size has: out of range (int() would refuse 4,300 digits).
-            sizes[key] = int(words[1]) if len(words[1]) <= 12 else MAX_SIDE + 1
+            size = int(digits) if len(digits) <= 12 else MAX_SIDE + 1
+            sizes[key] = -size if sign == "-" else size
             if not 1 <= sizes[key] <= MAX_SIDE:
                 raise ValueError(f"{name}, line {number}: {key} must be 1 to {MAX_SIDE} (the "
                                  f"largest floor), got {words[1][:40]}")  # fmt: skip
@@ -406,20 +460,19 @@ def write_movingai(grid: WarehouseGrid, path: str | os.PathLike[str]) -> Path:
     package cell). Read the file with ``packages="endpoints"`` when it has an ``E``,
     ``"all"`` otherwise, and the floor round-trips.
     """
-    rows = [["@" if (r, c) in grid.shelves else "." for c in range(grid.cols)]
-            for r in range(grid.rows)]  # fmt: skip
+    # Whole rows at a time, as bytes: a 2,048 x 2,048 floor takes no loop over its cells.
+    plain = np.where(grid.shelf_mask, ord("#"), ord(".")).astype(np.uint8)
     try:
-        plain = WarehouseGrid.from_layout(
-            ["".join("#" if symbol == "@" else "." for symbol in row) for row in rows]
-        )
-        endpoints = set(plain.target_cells) != set(grid.target_cells)
+        again = WarehouseGrid.from_layout([row.tobytes().decode("ascii") for row in plain])
+        endpoints = not np.array_equal(again.target_indices, grid.target_indices)
     except ValueError:  # a floor of one reachable cell: packages="all" leaves no package
         endpoints = True
+    symbols = np.where(grid.shelf_mask, ord("@"), ord(".")).astype(np.uint8)
     if endpoints:
-        for r, c in grid.target_cells:
-            rows[r][c] = MOVINGAI_ENDPOINT
+        symbols.flat[grid.target_indices] = ord(MOVINGAI_ENDPOINT)
+    lines = np.concatenate([symbols, np.full((grid.rows, 1), ord("\n"), np.uint8)], axis=1)
     header = f"type octile\nheight {grid.rows}\nwidth {grid.cols}\nmap\n"
-    return atomic_write_text(path, header + "".join("".join(row) + "\n" for row in rows))
+    return atomic_write_text(path, header + lines.tobytes().decode("ascii"))
 
 
 def make_grid(

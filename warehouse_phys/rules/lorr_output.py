@@ -230,9 +230,7 @@ def replay(output: dict[str, Any], grid: WarehouseGrid) -> Replay:
     headings = np.zeros((steps + 1, n), dtype=np.int64)
     cells[0] = [row * cols + col for row, col, *_ in output["start"][:n]]
     headings[0] = [HEADING_LETTERS.index(s[2]) if turning else 0 for s in output["start"][:n]]
-    free = np.ones(grid.rows * cols, dtype=bool)
-    for row, col in grid.shelves:
-        free[row * cols + col] = False
+    free = grid.free_mask.reshape(-1)
     conflicts: list[tuple[int, int, int, str]] = []
     for step in range(steps):
         act = actions[:, step]

@@ -29,13 +29,13 @@ _REJECTION_TRIES = 8
 
 
 def package_cells(grid: WarehouseGrid) -> np.ndarray:
-    """The floor's package cells as indices, in row-major order."""
-    return np.array([r * grid.cols + c for r, c in grid.target_cells], np.int64)
+    """The floor's package cells as indices, in row-major order (a fresh array)."""
+    return np.array(grid.target_indices, np.int64)
 
 
 def reachable_cells(grid: WarehouseGrid) -> np.ndarray:
     """The cells a robot can reach from the floor's start, as sorted indices."""
-    return np.array(sorted(r * grid.cols + c for r, c in grid.reachable), np.int64)
+    return np.flatnonzero(grid.reachable_mask).astype(np.int64, copy=False)
 
 
 def layout_starts(grid: WarehouseGrid, n: int, reachable: np.ndarray) -> np.ndarray:

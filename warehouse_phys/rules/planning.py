@@ -223,14 +223,8 @@ class PIBT:
             plan[i] = here_list[i]
             occupied_next[here_list[i]] = i
         requested = {i: a for i, a in (requests or {}).items() if movable[i]}
-        for i, action in requested.items():
-            if self.turning:  # forward: the cell ahead, a turn or a wait: its own cell
-                ahead = int(self._table[here_list[i], HEADING_MOVES[headings[i]]])
-                ranked_of[i] = [ahead if action == TurnAction.FORWARD else here_list[i]]
-            else:
-                ranked_of[i] = [int(self._table[here_list[i], action])]
-                if action != WAIT and ranked_of[i][0] == here_list[i]:
-                    ranked_of[i] = [here_list[i]]  # into a wall or shelf: it stays
+        self._request(requested, here_list, headings, ranked_of)
+        self._suspects = self._swap_suspects(here, present, moving, requested)
         by_priority = moving[np.argsort(-self._priority[moving], kind="stable")].tolist()
         first = list(requested)
         if self.turning:  # robots turning towards a cell plan first, for that cell alone
@@ -250,6 +244,23 @@ class PIBT:
         step = np.array(plan, dtype=np.int64)[moving] - here[moving] + cols
         actions[moving] = np.array(self._action_of, dtype=np.int64)[step]
         return actions
+
+    def _request(
+        self,
+        requested: dict[int, int],
+        here: list[int],
+        headings: np.ndarray | None,
+        ranked_of: list[Any],
+    ) -> None:
+        """Make each requested action its robot's one candidate."""
+        for i, action in requested.items():
+            if self.turning:  # forward: the cell ahead, a turn or a wait: its own cell
+                ahead = int(self._table[here[i], HEADING_MOVES[headings[i]]])
+                ranked_of[i] = [ahead if action == TurnAction.FORWARD else here[i]]
+            else:
+                ranked_of[i] = [int(self._table[here[i], action])]
+                if action != WAIT and ranked_of[i][0] == here[i]:
+                    ranked_of[i] = [here[i]]  # into a wall or shelf: it stays
 
     def _ranked_candidates(
         self,
@@ -289,6 +300,7 @@ class PIBT:
         order = np.lexsort((tie_break, pushes, distance), axis=1)
         ranked = np.take_along_axis(candidates, order, axis=1)
         ranked[np.take_along_axis(np.isinf(distance), order, axis=1)] = NIL
+        self._first_choice = ranked[:, 0]
         ranked_of: list[list[int] | None] = [None] * n
         for i, row in zip(moving.tolist(), ranked.tolist(), strict=True):
             ranked_of[i] = row
@@ -375,10 +387,7 @@ class PIBT:
             self._around = self.distances
             if held.size:
                 cols = self.grid.cols
-                floor = np.full((self.grid.rows, cols), ".", dtype="<U1")
-                if self.grid.shelves:
-                    shelves = np.array(sorted(self.grid.shelves))
-                    floor[shelves[:, 0], shelves[:, 1]] = "#"
+                floor = np.where(self.grid.shelf_mask, "#", ".")
                 floor[held // cols, held % cols] = "#"
                 rows = ["".join(row) for row in floor.tolist()]
                 with contextlib.suppress(ValueError):  # held cells that leave no floor
@@ -401,6 +410,7 @@ class PIBT:
             else []
         )
         self._moves, self._enterable = moves, enterable
+        self._exit_count = enterable.sum(axis=1)
 
     def _exits(self, cell: int) -> list[int]:
         if self._exits_of:
@@ -412,6 +422,28 @@ class PIBT:
         candidates."""
         maps = self.distances if self._plain[robot] else self._around
         return maps.distance(cell, self._goal_list[robot])
+
+    def _swap_suspects(
+        self, here: np.ndarray, present: np.ndarray, moving: np.ndarray, requested: dict
+    ) -> list[bool]:
+        """Which robots :meth:`_swap_partner` must look at: those whose first choice is a
+        cell another robot stands on now with at most two ways out (the conditions of a
+        swap that do not change during the step, tested for all robots at once), and
+        those asked to move (their one candidate is the request)."""
+        suspect = np.zeros(len(here), dtype=bool)
+        occupant = np.full(len(self._table), NIL, dtype=np.int64)
+        occupant[here[present]] = np.flatnonzero(present)
+        best = self._first_choice
+        chosen = best != NIL
+        best = np.where(chosen, best, 0)
+        suspect[moving] = (
+            chosen
+            & (best != here[moving])
+            & (occupant[best] != NIL)
+            & (self._exit_count[best] <= 2)
+        )
+        suspect[list(requested)] = True
+        return suspect.tolist()
 
     def _swap_partner(
         self, i: int, here: list[int], ranked: list[int], plan: list[int], occupied_now: list[int]
@@ -501,6 +533,7 @@ class PIBT:
         planner of a fleet whose robots may follow each other round corners."""
         # Each frame: [robot, its candidates, the position of the next one to try, the
         # robot it pulls into its cell once it moves (the swap operation) or NIL].
+        suspects = self._suspects  # the others' frames are built inline: most robots
         stack = [self._frame(root, here, ranked_of, plan, occupied_now)]
         child_planned = None  # the outcome of the frame just popped
         while stack:
@@ -525,7 +558,11 @@ class PIBT:
                 occupied_next[cell] = i
                 if j != NIL and j != i and plan[j] == NIL:  # j inherits: it must move
                     frame[2] = position
-                    stack.append(self._frame(j, here, ranked_of, plan, occupied_now))
+                    stack.append(
+                        self._frame(j, here, ranked_of, plan, occupied_now)
+                        if suspects[j]
+                        else [j, ranked_of[j], 0, NIL]
+                    )
                     break
                 self._pull(i, partner, here, plan, occupied_next)
                 stack.pop()
@@ -549,6 +586,8 @@ class PIBT:
         from its goal first) when it must let a robot pass (:meth:`_swap_partner`)."""
         candidates = ranked_of[i]
         if self.turning:  # no swap operation: it would pull a robot backwards
+            return [i, candidates, 0, NIL]
+        if not self._suspects[i]:
             return [i, candidates, 0, NIL]
         partner = self._swap_partner(i, here, candidates, plan, occupied_now)
         if partner != NIL:
@@ -591,7 +630,11 @@ class PIBT:
         out): a robot ``i`` that must let it out (:meth:`_swap_partner`) backs away from
         it in the line of the two, pushing the line behind it, and pulls it on after it.
         """
-        partner = self._swap_partner(i, here, ranked_of[i], plan, occupied_now)
+        partner = (
+            self._swap_partner(i, here, ranked_of[i], plan, occupied_now)
+            if self._suspects[i]
+            else NIL
+        )
         if partner != NIL and len(self._exits(here[partner])) == 1:  # a pocket
             away = int(
                 self._table[here[i], self._action_of[here[i] - here[partner] + self.grid.cols]]

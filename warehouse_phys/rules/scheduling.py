@@ -42,7 +42,8 @@ def nearest_free_robot(robot_cells: np.ndarray, task_cells: np.ndarray, cols: in
 
     Each round offers every unpaired robot its :data:`NEAREST_OFFERED` nearest unpaired
     tasks (a k-d tree) and accepts pairs nearest first: O((F + K) log K) a round, and a
-    round pairs most robots (a robot all of whose offers were taken waits for the next).
+    round pairs most robots (a robot all of whose offers were taken waits for the next, and
+    a round stops at an offer that ties with tasks the tree may have left out).
     The distance ignores shelves: it is what the competition's default scheduler
     measures first, not the path's length (which would cost a distance map per task).
     """
@@ -61,9 +62,18 @@ def nearest_free_robot(robot_cells: np.ndarray, task_cells: np.ndarray, cols: in
         offers = tasks[np.asarray(nearest).reshape(len(robots), k)]
         who = np.repeat(robots, k)
         order = np.lexsort((offers.ravel(), who, distance.ravel()))
+        # An offer as far as a robot's last is uncertain unless every task was offered:
+        # the tree may have left out an earlier task at that distance. The pairs are
+        # taken in order up to the first uncertain one a free robot meets.
+        uncertain = (distance >= distance[:, -1:]).ravel() & (k < tasks.size)
         taken = np.zeros(len(task_cells), dtype=bool)
-        for robot, task in zip(who[order].tolist(), offers.ravel()[order].tolist(), strict=True):
-            if choice[robot] < 0 and not taken[task]:
+        for robot, task, unsure in zip(who[order].tolist(), offers.ravel()[order].tolist(),
+                                       uncertain[order].tolist(), strict=True):  # fmt: skip
+            if choice[robot] >= 0:
+                continue
+            if unsure:
+                break
+            if not taken[task]:
                 choice[robot] = task
                 taken[task] = True
         robots = robots[choice[robots] < 0]

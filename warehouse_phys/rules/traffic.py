@@ -161,10 +161,7 @@ def _floor_tables(grid: WarehouseGrid) -> tuple[np.ndarray, np.ndarray]:
     tables = _NEIGHBOUR_TABLES.pop(key, None)
     if tables is None:
         rows, cols = grid.rows, grid.cols
-        free = np.ones((rows, cols), dtype=bool)
-        if grid.shelves:
-            shelves = np.array(sorted(grid.shelves), dtype=np.int64)
-            free[shelves[:, 0], shelves[:, 1]] = False
+        free = grid.free_mask
         row, col = np.divmod(np.arange(rows * cols, dtype=np.int64), cols)
         table = np.empty((rows * cols, FLEET_ACTIONS), dtype=np.int64)
         table[:, WAIT] = row * cols + col
@@ -322,6 +319,29 @@ def moves_refused_by_floor(
     return granted_moves(grid, here, act, parked).bumped
 
 
+def robot_cell_indices(
+    grid: WarehouseGrid, cells: np.ndarray | Sequence[tuple[int, int]], prefix: str = ""
+) -> np.ndarray:
+    """Robots' ``(N, 2)`` cells as cell indices ``row * cols + col``, each on the floor and
+    no two alike, or a one-line ``ValueError`` (starting with ``prefix``) naming the robot."""
+    cells = np.asarray(cells)
+    if cells.size == 0:
+        cells = cells.reshape(0, 2)
+    if cells.ndim != 2 or cells.shape[1] != 2 or cells.dtype.kind not in "iu":
+        raise ValueError(
+            f"{prefix}cells must be N (row, col) integer pairs, got shape {cells.shape}"
+        )
+    rows, cols = cells[:, 0].astype(np.int64), cells[:, 1].astype(np.int64)
+    off = (rows < 0) | (rows >= grid.rows) | (cols < 0) | (cols >= grid.cols)
+    if off.any():
+        i = int(np.flatnonzero(off)[0])
+        raise ValueError(f"{prefix}robot {i}'s cell {tuple(cells[i].tolist())} is off the floor")
+    here = rows * grid.cols + cols
+    if len(here) > 1 and len(np.unique(here)) != len(here):
+        raise ValueError(f"{prefix}two robots share a cell: {[tuple(c) for c in cells.tolist()]}")
+    return here
+
+
 def _checked_joint(
     grid: WarehouseGrid,
     cells: np.ndarray | Sequence[tuple[int, int]],
@@ -329,20 +349,8 @@ def _checked_joint(
     parked: np.ndarray | Sequence[bool] | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cell indices, actions and the parked mask as arrays, or a one-line ``ValueError``."""
-    cells = np.asarray(cells)
-    n = len(cells)
-    if cells.size == 0:
-        cells = cells.reshape(0, 2)
-    if cells.ndim != 2 or cells.shape[1] != 2 or cells.dtype.kind not in "iu":
-        raise ValueError(f"cells must be N (row, col) integer pairs, got shape {cells.shape}")
-    rows, cols = cells[:, 0].astype(np.int64), cells[:, 1].astype(np.int64)
-    off = (rows < 0) | (rows >= grid.rows) | (cols < 0) | (cols >= grid.cols)
-    if off.any():
-        i = int(np.flatnonzero(off)[0])
-        raise ValueError(f"robot {i}'s cell {tuple(cells[i].tolist())} is off the floor")
-    here = rows * grid.cols + cols
-    if n > 1 and len(np.unique(here)) != n:
-        raise ValueError(f"two robots share a cell: {[tuple(c) for c in cells.tolist()]}")
+    here = robot_cell_indices(grid, cells)
+    n = len(here)
     act = np.asarray(actions)
     if act.shape != (n,):
         raise ValueError(f"need one action per robot ({n}), got shape {act.shape}")
