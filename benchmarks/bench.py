@@ -27,7 +27,7 @@ Groups and references:
 - physics: a physics step (the move loop's, against ``Space.step``), a move, a reset;
 - world model: building a big floor and suggesting time limits (no reference).
 
-    python benchmarks/bench.py [--quick] [--rounds K] [--json PATH]
+    python benchmarks/bench.py [--quick] [--rounds K] [--json PATH] [--only GROUP]
 """
 
 from __future__ import annotations
@@ -116,6 +116,8 @@ class Candidate:
     per: float = 1.0
     target_ratio: float | None = None
     target_value: float | None = None
+    #: The CPU seconds of the last run that count, if not all of them (``None``: all).
+    cpu_seconds: Callable[[], float] | None = None
 
 
 def interleaved(
@@ -128,7 +130,10 @@ def interleaved(
         for candidate in candidates[shift:] + candidates[:shift]:
             start = time.process_time()
             work = candidate.run()
-            seconds = max(time.process_time() - start, 1e-9)
+            seconds = time.process_time() - start
+            if candidate.cpu_seconds is not None:
+                seconds = candidate.cpu_seconds()
+            seconds = max(seconds, 1e-9)
             if candidate.higher_is_better:
                 values[candidate.name].append(work / seconds)
             else:
@@ -296,28 +301,69 @@ def vector_figures(sizes: list[int], env_steps: int, rounds: int) -> list[Figure
     return figures
 
 
+def chipmunk_timed(run: Callable[[], float]) -> tuple[Callable[[], float], Callable[[], float]]:
+    """``run`` with every physics step of the batched world timed: the run, and the CPU
+    seconds its last call spent inside chipmunk's ``cpSpaceStep``."""
+    from warehouse_phys.physics import batched as batched_physics
+
+    stepping = batched_physics.space_stepping
+    inside = [0.0]
+
+    def timed_stepping(space: object) -> tuple[Callable[..., None], object]:
+        step, handle = stepping(space)
+
+        def timed(handle: object, dt: float) -> None:
+            start = time.process_time()
+            step(handle, dt)
+            inside[0] += time.process_time() - start
+
+        return timed, handle
+
+    def timed_run() -> float:
+        inside[0] = 0.0
+        batched_physics.space_stepping = timed_stepping
+        try:
+            return run()
+        finally:
+            batched_physics.space_stepping = stepping
+
+    return timed_run, lambda: inside[0]
+
+
 def physics_vector_figures(sizes: list[int], robot_actions: int, rounds: int) -> list[Figure]:
     """The native physics vector env against the single physics env (``gym.make``), size by
-    size: robot-actions per CPU second, each size in its own rounds."""
+    size: robot-actions per CPU second, each size in its own rounds. At 256 envs also
+    chipmunk alone: the robot-actions per CPU second spent inside ``cpSpaceStep`` in a
+    third env of the same rounds, the rate the vector env would reach with no Python
+    at all, so its ratio bounds the vector env's."""
     single_actions = np.random.default_rng(3).integers(4, size=robot_actions // 4).tolist()
     figures = []
     for n in sizes:
         native = gym.make_vec(PHYS_ID, num_envs=n)
         reference = f"gym.make physics env, beside {n} envs"
-        figures += interleaved(
-            [
-                Candidate(reference, "robot-actions/s", stepper(gym.make(PHYS_ID), single_actions)),
+        candidates = [
+            Candidate(reference, "robot-actions/s", stepper(gym.make(PHYS_ID), single_actions)),
+            Candidate(
+                f"native physics vector env, {n} envs",
+                "robot-actions/s",
+                vector_stepper(native, robot_actions),
+                target_ratio=3.5 if n == 256 else None,
+                target_value=2e5 if n == 256 else None,
+            ),
+        ]
+        if n == 256:
+            timed_run, inside = chipmunk_timed(
+                vector_stepper(gym.make_vec(PHYS_ID, num_envs=n), robot_actions)
+            )
+            candidates.append(
                 Candidate(
-                    f"native physics vector env, {n} envs",
+                    f"chipmunk alone in the physics vector env, {n} envs",
                     "robot-actions/s",
-                    vector_stepper(native, robot_actions),
-                    target_ratio=3.5 if n == 256 else None,
-                    target_value=2e5 if n == 256 else None,
-                ),
-            ],
-            rounds,
-            reference=reference,
-        )
+                    timed_run,
+                    cpu_seconds=inside,
+                )
+            )
+        figures += interleaved(candidates, rounds, reference=reference)
     return figures
 
 
@@ -441,7 +487,6 @@ def physics_fleet_stepper(
     floor, robots on random distinct cells; counts joint steps. With ``chipmunk``, each
     run appends the CPU time spent inside chipmunk's ``cpSpaceStep`` to it."""
     from warehouse_phys.envs.fleet import parallel_env
-    from warehouse_phys.physics import batched as batched_physics
 
     env = parallel_env(
         num_robots=robots, physics=True, grid_rows=64, grid_cols=64, lifelong=True,
@@ -449,34 +494,23 @@ def physics_fleet_stepper(
     )  # fmt: skip
     env.reset(seed=0)
     joint = random_joint_actions(env, joint_steps, seed=7)
-    inside = [0.0]
-    stepping = batched_physics.space_stepping
-
-    def timed_stepping(space: object) -> tuple[Callable[..., None], object]:
-        step, handle = stepping(space)
-
-        def timed(handle: object, dt: float) -> None:
-            start = time.process_time()
-            step(handle, dt)
-            inside[0] += time.process_time() - start
-
-        return timed, handle
 
     def run() -> float:
-        inside[0] = 0.0
         step = env.step
-        if chipmunk is not None:  # time every physics step of this run, and only of it
-            batched_physics.space_stepping = timed_stepping
-        try:
-            for actions in joint:
-                step(actions)
-        finally:
-            batched_physics.space_stepping = stepping
-        if chipmunk is not None:
-            chipmunk.append(inside[0])
+        for actions in joint:
+            step(actions)
         return len(joint)
 
-    return run
+    if chipmunk is None:
+        return run
+    timed_run, inside = chipmunk_timed(run)  # every physics step of this run, only of it
+
+    def recorded() -> float:
+        done = timed_run()
+        chipmunk.append(inside())
+        return done
+
+    return recorded
 
 
 def physics_fleet_figures(sizes: list[int], joint_steps: int, rounds: int) -> list[Figure]:
@@ -662,6 +696,11 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         help=f"interleaved rounds per group (default and least for a report: {MIN_ROUNDS})",
     )
     parser.add_argument("--json", type=Path, help="write the results to this JSON file")
+    parser.add_argument(
+        "--only",
+        metavar="TEXT",
+        help="run only the groups whose title starts with TEXT (e.g. 'physics vector')",
+    )
     args = parser.parse_args(argv)
     if args.rounds < 1:
         parser.error("--rounds must be at least 1")
@@ -681,38 +720,42 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         "physics_fleet_sizes": [64, 256] if args.quick else [64, 256, 1024],
         "physics_fleet_joint_steps": 8 if args.quick else 400,
     }
-    sections = {
-        f"stepping ({budget['actions']:,} random actions a round, resets included)": (
+    groups = {  # made lazily: --only runs some
+        f"stepping ({budget['actions']:,} random actions a round, resets included)": lambda: (
             stepping_figures(budget["actions"], rounds)
         ),
-        f"rendering rgb_array ({budget['frames']} steps a round, a frame after each)": (
+        f"rendering rgb_array ({budget['frames']} steps a round, a frame after each)": lambda: (
             rendering_figures(budget["frames"], rounds)
         ),
-        f"training ({budget['episodes']} episodes a round, default trainer)": (
+        f"training ({budget['episodes']} episodes a round, default trainer)": lambda: (
             training_figures(budget["episodes"], rounds)
         ),
-        "vector (random actions, autoreset included)": vector_figures(
+        "vector (random actions, autoreset included)": lambda: vector_figures(
             budget["vector_sizes"], budget["vector_env_steps"], rounds
         ),
-        "physics vector (random actions, autoreset included)": physics_vector_figures(
+        "physics vector (random actions, autoreset included)": lambda: physics_vector_figures(
             budget["physics_vector_sizes"], budget["physics_vector_robot_actions"], rounds
         ),
-        "fleet (random joint actions on an 8 x 10 floor, lifelong)": fleet_figures(
+        "fleet (random joint actions on an 8 x 10 floor, lifelong)": lambda: fleet_figures(
             budget["fleet_sizes"], budget["fleet_joint_steps"], rounds
         ),
-        "fleet at scale (grid twin, random joint actions, lifelong, 128 x 128)": (
+        "fleet at scale (grid twin, random joint actions, lifelong, 128 x 128)": lambda: (
             fleet_scale_figures(
                 budget["fleet_scale_sizes"], budget["fleet_scale_robot_steps"], rounds
             )
         ),
-        "physics fleet at scale (random joint actions, lifelong, 64 x 64)": (
+        "physics fleet at scale (random joint actions, lifelong, 64 x 64)": lambda: (
             physics_fleet_figures(
                 budget["physics_fleet_sizes"], budget["physics_fleet_joint_steps"], rounds
             )
         ),
-        "physics (default settings)": physics_figures(rounds),
-        "world model": world_model_figures(rounds),
+        "physics (default settings)": lambda: physics_figures(rounds),
+        "world model": lambda: world_model_figures(rounds),
     }
+    chosen = [title for title in groups if args.only is None or title.startswith(args.only)]
+    if not chosen:
+        parser.error(f"--only {args.only!r} names no group; the groups are {list(groups)}")
+    sections = {title: groups[title]() for title in chosen}
     print(
         f"median of {rounds} interleaved round(s), CPU time; "
         f"Python {platform.python_version()}, {os.cpu_count()} CPUs"

@@ -207,7 +207,7 @@ def test_main_defaults_to_the_physics_and_takes_a_layout(monkeypatch):
     ("args", "message"),
     [
         (["--env", "box"], "argument --env: invalid choice: 'box'"),
-        (["--rows", "1"], "argument --rows: expected 2 to 512 rows, got 1"),
+        (["--rows", "1"], "argument --rows: expected 2 to 2048 rows, got 1"),
         (["--seed", "-3"], "argument --seed: expected a non-negative integer seed, got -3"),
         (["--layout", "nowhere"], "--layout 'nowhere' is neither a preset"),
         (["--layout", "maze", "--cols", "4"], "--rows and --cols come from the layout"),

@@ -1,6 +1,7 @@
 """python -m warehouse_phys.simulate: the measures, the run folder and clear errors."""
 
 import json
+import time
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +56,7 @@ def test_the_command_writes_its_run_folder(tmp_path, capsys):
     [
         (["--policy", "magic"], "unknown policy 'magic'"),
         (["--robots", "300"], "300 robots need"),
-        (["--layout", "nowhere"], "unknown layout"),
+        (["--layout", "nowhere"], "--layout 'nowhere' is neither a preset"),
         (["--on-delivery", "vanish"], "invalid choice: 'vanish'"),
         (["--layout", "aisles", "--rows", "5"], "not both"),
         (["--policy", "missing.npz"], "missing.npz"),
@@ -144,6 +145,86 @@ def test_the_kiva_warehouse_map_runs_the_planner(tmp_path, capsys):
         assert gif.n_frames == 3
 
 
+def test_a_layout_text_file_runs_as_train_play_and_sweep_read_it(tmp_path, capsys):
+    room = tmp_path / "room.txt"
+    room.write_text(".......\n.##.##.\n.......\n.##.##.\n.......\n")
+    out = tmp_path / "run"
+    argv = ["--layout", str(room), "--robots", "3", "--steps", "10", "--frames", "2",
+            "--no-compare", "--out", str(out), "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    assert "3 robots on room, 10 steps" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["layout"] == "room"
+    assert len(summary["deliveries_per_step"]) == 10
+    (tmp_path / "notes.txt").write_text("buy milk\n")
+    assert main(["--layout", str(tmp_path / "notes.txt"), "--quiet",
+                 "--out", str(tmp_path / "x")]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert f"--layout {tmp_path / 'notes.txt'}: unknown layout symbol 'b'" in err
+    assert err.count("\n") == 1
+
+
+def burn(seconds):
+    """Spend ``seconds`` of CPU time."""
+    end = time.process_time() + seconds
+    while time.process_time() < end:
+        pass
+
+
+def test_the_summary_times_the_reset_and_the_steps_with_the_frames_apart(tmp_path, monkeypatch):
+    from warehouse_phys.drawing import render
+
+    drawn = render.fleet_map_frame
+    reset = fleet.WarehouseFleetEnv.reset
+
+    def slow_frame(*args, **kwargs):
+        burn(0.03)
+        return drawn(*args, **kwargs)
+
+    def slow_reset(self, *args, **kwargs):
+        burn(0.2)
+        return reset(self, *args, **kwargs)
+
+    monkeypatch.setattr(render, "fleet_map_frame", slow_frame)
+    monkeypatch.setattr(fleet.WarehouseFleetEnv, "reset", slow_reset)
+    out = tmp_path / "run"
+    argv = ["--layout", "aisles", "--robots", "4", "--steps", "20", "--frames", "21",
+            "--policy", "shortest", "--no-compare", "--out", str(out), "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    timing = json.loads((out / "summary.json").read_text())["cpu_seconds_of"]
+    assert timing["reset"] >= 0.2
+    assert timing["frames"] >= 21 * 0.03
+    assert timing["median_frame"] >= 0.03
+    # A frame after every step, none of it counted in a step.
+    assert timing["first_step"] < 0.03
+    assert timing["median_step"] <= timing["max_step"] < 0.03
+
+
+@pytest.mark.skipif(
+    not (MAPS / "warehouse-large-140-500.map").is_file(),
+    reason=f"no benchmark maps in {MAPS} (warehouse-large-140-500.map)",
+)
+def test_a_frame_costs_less_than_a_step_on_the_largest_warehouse_map():
+    import gc
+
+    from warehouse_phys.drawing import render
+    from warehouse_phys.rules.planning import pibt_policy
+
+    env = fleet.parallel_env(layout=str(MAPS / "warehouse-large-140-500.map"), num_robots=1000,
+                             max_cycles=16, observation="local")  # fmt: skip
+    render._floor_image.cache_clear()
+    gc.freeze()  # as the command does: a full collection would land in a step or a frame
+    try:
+        result, frames = simulate(env, pibt_policy(seed=0), steps=16, frames=17)
+    finally:
+        gc.unfreeze()
+    assert len(frames) == 17
+    assert render._floor_image.cache_info().misses == 1  # 38,000 shelves painted once
+    timing = result.timing()  # CPU time, measured in the same process
+    assert timing["median_frame"] <= timing["median_step"]
+    assert timing["frames"] <= result.cpu_seconds
+
+
 @pytest.mark.parametrize(("on_delivery", "seed"), [("park", 2), ("leave", 2), ("park", 3)])
 def test_a_one_shot_run_measures_as_evaluate_fleet_does(on_delivery, seed):
     env = fleet.parallel_env(num_robots=4, layout="aisles", on_delivery=on_delivery,
@@ -185,7 +266,8 @@ def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_
     assert summary["errands"] == summary["deliveries"] >= summary["tasks"]
     assert summary["published"]["best_per_step"] == 30.97
     timing = summary["cpu_seconds_of"]
-    assert set(timing) == {"reset", "first_step", "median_step", "max_step"}
+    assert set(timing) == {"reset", "first_step", "median_step", "max_step", "frames",
+                           "median_frame"}  # fmt: skip
     assert timing["max_step"] >= timing["median_step"] > 0
     output = json.loads((out / "lorr-output.json").read_text())
     assert output["numTaskFinished"] == summary["tasks"]

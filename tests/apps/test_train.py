@@ -6,6 +6,7 @@ import re
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -14,7 +15,8 @@ from PIL import Image, ImageSequence
 
 import warehouse_phys
 from warehouse_phys import train as train_cli
-from warehouse_phys.rl.qlearning import load_q_table
+from warehouse_phys.apps.train import FLEET_EPISODES
+from warehouse_phys.rl.qlearning import check_training_memory, load_q_table, table_tail
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -200,11 +202,12 @@ def test_eval_uses_the_tables_grid_and_refuses_another(tmp_path):
         (["--episodes", "0"], "argument --episodes: expected a positive number of episodes, got 0"),
         (["--episodes", "-3"], "expected a positive number of episodes, got -3"),
         (["--episodes", "many"], "expected a positive number of episodes, got 'many'"),
-        (["--rows", "1"], "argument --rows: expected 2 to 512 rows, got 1"),
-        (["--cols", "0"], "argument --cols: expected 2 to 512 columns, got 0"),
+        (["--rows", "1"], "argument --rows: expected 2 to 2048 rows, got 1"),
+        (["--cols", "0"], "argument --cols: expected 2 to 2048 columns, got 0"),
         (["--alpha", "0"], r"argument --alpha: expected a number in \(0, 1\], got 0"),
         (["--alpha", "1.5"], r"expected a number in \(0, 1\], got 1.5"),
         (["--gamma", "-0.1"], r"argument --gamma: expected a number in \[0, 1\], got -0.1"),
+        (["--gamma", "1.0000001"], r"expected a number in \[0, 1\], got 1\.0000001$"),
         (["--seed", "-1"], "argument --seed: expected a non-negative integer seed, got -1"),
         (["--env", "mujoco"], "argument --env: invalid choice: 'mujoco'"),
         (["--eval", "missing.npz"], "--eval: missing.npz: no such file"),
@@ -367,7 +370,7 @@ def test_max_steps_sets_the_time_limit_and_is_recorded(tmp_path, capsys):
          r"a 300x300 floor needs a Q-table of 241\.4 GiB and 1000 episodes need .* more than "
          r"the 2\.0 GiB"),
         (["--episodes", "999999999999"], r"and 999999999999 episodes need 23\.6 TiB of records"),
-        (["--rows", "100000"], "argument --rows: expected 2 to 512 rows, got 100000"),
+        (["--rows", "100000"], "argument --rows: expected 2 to 2048 rows, got 100000"),
         (["--max-steps", "0"], "argument --max-steps: expected a positive number of steps, got 0"),
         (["--out", ""], "argument --out: expected a folder, got an empty path"),
     ],
@@ -620,6 +623,22 @@ def test_a_neighbours_fleet_table_is_written_read_back_and_evaluated(tmp_path, c
     ("args", "message"),
     [
         (["--robots", "0"], "expected a number of robots from 1 to 10,000, got 0"),
+        (["--robots", "10000"], "at most 1024 robots, got 10000; --env grid takes more"),
+        (
+            [
+                "--env",
+                "grid",
+                "--robots",
+                "2",
+                "--rows",
+                "43",
+                "--cols",
+                "43",
+                "--observation",
+                "neighbours",
+            ],
+            "a 43x43 floor needs a Q-table of 2.04 GiB",
+        ),
         (["--robots", "3", "--render"], "--render shows one robot in a window"),
         (["--robots", "7", "--layout", "depot"], "7 robots need 7 package cells"),
         (["--observation", "neighbours"], "it needs --robots 2 or more"),
@@ -631,4 +650,23 @@ def test_a_neighbours_fleet_table_is_written_read_back_and_evaluated(tmp_path, c
 def test_a_fleet_that_cannot_be_trained_exits_2_and_writes_nothing(tmp_path, capsys, args, message):
     assert train_cli.main([*args, "--out", str(tmp_path / "out")]) == 2
     assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_readme_names_the_largest_square_floors_train_accepts(tmp_path, capsys):
+    readme = (Path(__file__).parents[2] / "README.md").read_text()
+    row = next(line for line in readme.splitlines() if line.startswith("| training memory |"))
+    sides = [int(side) for side in re.findall(r"(\d+) x \1", row)]
+    assert len(sides) == 3, row
+    for (robots, observation), side in zip(
+        [(1, None), (2, "local"), (2, "neighbours")], sides, strict=True
+    ):
+        tail = table_tail({"robots": robots, "observation": observation})
+        episodes = 1000 if robots == 1 else FLEET_EPISODES
+        check_training_memory(side, side, episodes, tail=tail)  # fits
+        fleet = ["--robots", "2", "--observation", observation] if observation else []
+        larger = str(side + 1)
+        args = ["--env", "grid", "--rows", larger, "--cols", larger, *fleet]
+        assert train_cli.main([*args, "--out", str(tmp_path / "out")]) == 2
+        assert f"a {larger}x{larger} floor needs a Q-table" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()

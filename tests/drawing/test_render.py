@@ -4,7 +4,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from warehouse_phys import PHYSICS_ENV_ID, Action, WarehouseGridEnv
+from warehouse_phys import PHYSICS_ENV_ID, Action, WarehouseGrid, WarehouseGridEnv
 from warehouse_phys import render as render_module
 from warehouse_phys.drawing.render import WarehouseRenderer, ansi_frame, fleet_ansi_frame
 
@@ -348,6 +348,72 @@ def test_a_parked_robot_keeps_its_colour_in_a_green_frame_and_packages_show_unde
     assert (frame[0:12, 0:12] == render_module.MAP_ROBOT_COLOURS[0]).all()  # not framed
     with pytest.raises(ValueError, match="cell_px must be at least 1"):
         render_module.fleet_map_frame(floor, robots, packages, cell_px=0)
+
+
+def reference_map_frame(grid, robots, packages, parked, on_floor, px):
+    """What fleet_map_frame promises, painted cell by cell with loops."""
+    frame = np.empty((grid.rows * px, grid.cols * px, 3), dtype=np.uint8)
+
+    def cell(row, col):
+        return frame[row * px : (row + 1) * px, col * px : (col + 1) * px]
+
+    for row in range(grid.rows):
+        for col in range(grid.cols):
+            shelf = (row, col) in grid.shelves
+            cell(row, col)[:] = render_module.MAP_SHELF if shelf else render_module.MAP_FLOOR
+    waiting = [i for i in range(len(robots)) if on_floor[i] and not parked[i]]
+    for i in waiting:
+        cell(*packages[i])[:] = render_module.MAP_PACKAGE
+    colours = render_module.MAP_ROBOT_COLOURS
+    for i in np.flatnonzero(on_floor):
+        small_and_parked = parked[i] and px < 4
+        cell(*robots[i])[:] = render_module.MAP_DELIVERED if small_and_parked else colours[i % 8]
+    border = max(1, px // 6)
+    for i in np.flatnonzero(on_floor & parked) if px >= 4 else []:
+        view = cell(*robots[i])
+        for side in (view[:border], view[-border:], view[:, :border], view[:, -border:]):
+            side[:] = render_module.MAP_DELIVERED
+    occupied = {tuple(robots[i]) for i in np.flatnonzero(on_floor)}
+    for i in waiting if px >= 3 else []:
+        if tuple(packages[i]) in occupied:
+            cell(*packages[i])[px // 3 : px - px // 3, px // 3 : px - px // 3] = (
+                render_module.MAP_PACKAGE
+            )
+    return frame
+
+
+def test_map_frames_paint_what_the_docstring_says_on_random_floors():
+    rng = np.random.default_rng(5)
+    for _ in range(60):
+        rows, cols = (int(x) for x in rng.integers(2, 10, 2))
+        layout = ["".join(rng.choice([".", ".", ".", "#"], cols)) for _ in range(rows)]
+        layout[0] = "." * cols  # a floor needs free cells; shelves elsewhere at random
+        floor = WarehouseGrid.from_layout(layout)
+        n = int(rng.integers(0, 9))
+        robots = rng.integers(0, [rows, cols], (n, 2))
+        packages = rng.integers(0, [rows, cols], (n, 2))
+        parked, on_floor = rng.random(n) < 0.4, rng.random(n) < 0.8
+        px = int(rng.integers(1, 14))
+        frame = render_module.fleet_map_frame(floor, robots, packages, parked=parked,
+                                              on_floor=on_floor, cell_px=px)  # fmt: skip
+        expected = reference_map_frame(floor, robots, packages, parked, on_floor, px)
+        assert (frame == expected).all()
+
+
+def test_a_floor_is_painted_once_however_many_frames_are_drawn():
+    floor = WarehouseGrid.from_layout(["....", ".##.", "...."])
+    render_module._floor_image.cache_clear()
+    empty = render_module.fleet_map_frame(floor, np.zeros((0, 2)), np.zeros((0, 2)), cell_px=5)
+    for col in range(4):
+        frame = render_module.fleet_map_frame(floor, [(0, col)], [(2, 3 - col)], cell_px=5)
+        assert (frame[0:5, col * 5 : col * 5 + 5] == render_module.MAP_ROBOT_COLOURS[0]).all()
+        frame[:] = 0  # a caller's frame is its own: the floor drawn next is untouched
+    info = render_module._floor_image.cache_info()
+    assert (info.misses, info.hits) == (1, 4)
+    again = render_module.fleet_map_frame(floor, np.zeros((0, 2)), np.zeros((0, 2)), cell_px=5)
+    assert (again == empty).all()
+    assert (again[5:10, 5:15] == render_module.MAP_SHELF).all()
+    assert again.flags.writeable
 
 
 def test_small_fleet_cells_draw_discs_keep_packages_visible_and_frame_the_delivered():

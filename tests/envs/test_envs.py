@@ -553,11 +553,11 @@ def test_sizes_given_with_a_layout_are_checked_by_name(env_id, kwargs, error, me
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"grid_rows": 513},
-         "grid_rows must be at most 512, got 513: the largest floor is 512 x 512"),
-        ({"grid_cols": 100_000}, "grid_cols must be at most 512"),
-        ({"grid_rows": 2**63}, "grid_rows must be at most 512"),
-        ({"layout": ["S" + "." * 600]}, "the layout has 1 rows of 601 cells: the largest floor is"),
+        ({"grid_rows": 2049},
+         "grid_rows must be at most 2048, got 2049: the largest floor is 2048 x 2048"),
+        ({"grid_cols": 100_000}, "grid_cols must be at most 2048"),
+        ({"grid_rows": 2**63}, "grid_rows must be at most 2048"),
+        ({"layout": ["S" + "." * 2048]}, "the layout has 1 rows of 2049 cells: the largest"),
     ],
 )  # fmt: skip
 def test_floors_beyond_the_largest_are_refused_at_once(env_id, kwargs, message):
@@ -665,6 +665,11 @@ SINGLE_BAD_CALLS = [
     ("step", np.ma.masked),
     ("step", np.ma.masked_array(1, mask=True)),
     ("step", np.array([1, 2])),
+    ("step", 2**63),
+    ("step", np.uint64(2**63)),
+    ("step", -(2**64)),
+    ("step", 10**5000),
+    ("reset", {"options": {"target": (10**5000, 1)}}),
 ]
 VECTOR_BAD_CALLS = [
     ("reset", {"seed": -1}),
@@ -680,6 +685,16 @@ VECTOR_BAD_CALLS = [
     ("step", np.array([1, 2, 3], dtype="m8")),
     ("step", np.ones(3)),
     ("step", np.ones(4, dtype=np.int64)),
+    ("step", [2**63, 0, 0]),
+    ("step", [np.uint64(2**63), 0, 0]),
+    ("step", [10**5000, 0, 0]),
+    ("step", [np.ma.masked_array(1, mask=True), 0, 0]),
+    ("step", np.ma.masked),
+    ("step", np.ma.masked_array(1, mask=True)),
+    ("step", [True, 0, 0]),
+    ("step", [np.int8(2), np.uint64(1), 4]),
+    ("step", [np.int8(2), np.uint64(1), 1.0]),
+    ("reset", {"options": {"reset_mask": np.ma.masked_array([True] * 3, mask=[1, 0, 0])}}),
 ]
 ALL_ENVS = {
     "grid": (lambda: gym.make(ENV_ID).unwrapped, SINGLE_BAD_CALLS),
@@ -873,3 +888,60 @@ def test_onehot_observation_passes_check_env(env_id):
 def test_an_unknown_observation_is_refused_by_name(env_id, value, error):
     with pytest.raises(error, match="observation must be one of"):
         gym.make(env_id, observation=value)
+
+
+# ------------------------------------------------ numbers too big for a float (issue 32)
+@pytest.mark.parametrize(
+    "value", [10**400, -(10**400), 10**5000], ids=["1e400", "-1e400", "1e5000"]
+)
+@pytest.mark.parametrize("keyword", ["step_penalty", "bump_penalty"])
+def test_a_penalty_too_big_for_a_float_is_refused_by_name(env_id, keyword, value):
+    message = f"^{keyword} must be a finite number >= 0, got a"
+    with pytest.raises(ValueError, match=message) as caught:
+        gym.make(env_id, **{keyword: value})
+    assert "\n" not in str(caught.value)
+    assert "bits" in str(caught.value)  # its size, not its 5000 digits
+
+
+def test_penalties_whose_sum_overflows_are_refused(env_id):
+    with pytest.raises(ValueError, match=r"^step_penalty \+ bump_penalty must be finite"):
+        gym.make(env_id, step_penalty=1e308, bump_penalty=1e308)
+
+
+@pytest.mark.parametrize(
+    ("value", "expected"),
+    [(np.float32(0.5), 0.5), (np.int64(2), 2.0), (np.uint8(0), 0.0), (2**63, 2.0**63)],
+)
+def test_numpy_and_large_integer_penalties_are_plain_floats(env_id, value, expected):
+    env = gym.make(env_id, step_penalty=value, bump_penalty=value).unwrapped
+    assert (type(env.step_penalty), type(env.bump_penalty)) == (float, float)
+    assert env.step_penalty == env.bump_penalty == expected
+    with pytest.raises(TypeError, match=r"^bump_penalty must be a real number"):
+        gym.make(env_id, bump_penalty=np.bool_(False))
+
+
+@pytest.mark.parametrize(
+    ("action", "error", "message"),
+    [
+        (2**63, ValueError, r"^invalid action 9223372036854775808: expected an integer in 0..3"),
+        (np.uint64(2**63), ValueError, r"^invalid action np.uint64\(9223372036854775808\)"),
+        (10**5000, ValueError, r"^invalid action \(an integer of 16610 bits\): expected"),
+        (-(10**5000), ValueError, r"^invalid action \(a negative integer of 16610 bits\)"),
+        (np.ma.masked, ValueError, r"^invalid action: a masked value \(MaskedConstant\)"),
+        (np.ma.masked_array(1, mask=True), ValueError, r"^invalid action: a masked value"),
+    ],
+    ids=["2**63", "uint64", "1e5000", "-1e5000", "masked", "masked array"],
+)  # fmt: skip
+def test_actions_beyond_int64_or_masked_are_refused_in_one_line(env_id, action, error, message):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    with pytest.raises(error, match=message) as caught:
+        env.step(action)
+    assert "\n" not in str(caught.value)
+    assert env.step(Action.RIGHT)[0][:2].tolist() == [0, 1]  # as if it never happened
+
+
+def test_a_target_beyond_int64_is_refused_in_one_line(env_id):
+    env = gym.make(env_id)
+    with pytest.raises(ValueError, match=r"^options\['target'\] \(an integer of 16610 bits, 1\)"):
+        env.reset(seed=0, options={"target": (10**5000, 1)})

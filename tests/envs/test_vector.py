@@ -87,8 +87,12 @@ def test_packages_are_drawn_uniformly_from_the_target_cells_never_on_the_start(n
         ({"reset_mask": np.array([False, False])}, ValueError, "at least one sub-environment"),
         ({"target": (1, 1)}, ValueError, r"unknown reset option\(s\) 'target'"),
         (5, TypeError, "reset options must be a dict or None, got int"),
+        ({"reset_mask": np.ma.masked_array([True, True], mask=[0, 1])}, ValueError,
+         r"^options\['reset_mask'\] has a masked entry \(sub-environment 1\)"),
+        ({"reset_mask": np.ma.masked_array([True, False], mask=True)}, ValueError,
+         r"^options\['reset_mask'\] has a masked entry \(sub-environment 0\)"),
     ],
-)
+)  # fmt: skip
 def test_bad_reset_options_are_refused_and_change_nothing(options, error, message):
     envs = gym.make_vec(GRID_ID, num_envs=2)
     obs, _ = envs.reset(seed=0)
@@ -116,6 +120,20 @@ def test_bad_reset_options_are_refused_and_change_nothing(options, error, messag
          r"array of this list: setting an array element with a sequence"),
         ([1, np.ma.masked], ValueError, "sub-environment 1's is masked"),
         (np.ma.masked_array([1, 2], mask=[1, 0]), ValueError, "sub-environment 0's is masked"),
+        # issue 32: beyond int64, masked 0-d values, bools and floats in a list
+        ([2**63, 0], ValueError, "^actions must be .*: sub-environment 0 got 9223372036854775808$"),
+        ([np.uint64(2**63), 1], ValueError, "sub-environment 0 got 9223372036854775808$"),
+        ([1, -(2**64)], ValueError, "sub-environment 1 got a negative integer of 65 bits$"),
+        ([10**5000, 0], ValueError, "sub-environment 0 got an integer of 16610 bits$"),
+        ([np.int8(2), np.uint64(4)], ValueError, "sub-environment 1 got 4$"),
+        ([np.ma.masked_array(1, mask=True), 0], ValueError, "sub-environment 0's is masked"),
+        ((0, np.ma.masked), ValueError, "sub-environment 1's is masked"),
+        (np.ma.masked, ValueError, r"actions must have shape \(2,\)"),
+        (np.ma.masked_array(1, mask=True), ValueError, r"actions must have shape \(2,\)"),
+        ([0, True], TypeError, "sub-environment 1's is a bool, not an integer"),
+        ([np.bool_(False), 1], TypeError, "sub-environment 0's is a bool, not an integer"),
+        ([np.int8(2), 1.0], TypeError, "got dtype float64"),
+        ([np.uint64(1), np.timedelta64(1)], TypeError, "got dtype"),
     ],
 )  # fmt: skip
 def test_invalid_actions_are_refused_and_change_nothing(actions, error, message):
@@ -183,3 +201,12 @@ def test_the_sb3_adapter_without_stable_baselines3_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "stable_baselines3.common", None)
     with pytest.raises(ImportError, match=r'pip install "warehouse_phys\[sb3\]"'):
         sb3.vec_env(GRID_ID, num_envs=2)
+
+
+def test_a_masked_reset_mask_with_nothing_masked_is_a_mask():
+    envs = gym.make_vec(GRID_ID, num_envs=2)
+    envs.reset(seed=0)
+    envs.step(np.array([2, 2]))
+    mask = np.ma.masked_array([False, True], mask=False)
+    obs, _ = envs.reset(options={"reset_mask": mask})
+    assert obs[:, :2].tolist() == [[0, 1], [0, 0]]

@@ -140,7 +140,7 @@ COMMON_BAD_ARGUMENTS = [
     ({"num_envs": 2.0}, TypeError, "num_envs must be an integer"),
     ({"max_episode_steps": 0}, ValueError, "max_episode_steps must be at"),
     ({"render_mode": "human"}, ValueError, "render_mode must be None or one of"),
-    ({"grid_rows": 600}, ValueError, "grid_rows must be at most 512"),
+    ({"grid_rows": 3000}, ValueError, "grid_rows must be at most 2048"),
     ({"num_envs": np.timedelta64(2)}, TypeError, "num_envs must be an integer"),
     ({"max_episode_steps": np.timedelta64(9)}, TypeError, "max_episode_steps must be an integer"),
     ({"grid_cols": np.timedelta64(3)}, TypeError, "grid_cols must be an integer"),
@@ -257,3 +257,39 @@ def test_penalties_and_onehot_follow_the_single_environment(kind, observation):
     if observation == "onehot":
         assert envs.single_observation_space == gym.spaces.Box(0, 1, (width,), np.float32)
         assert envs.observation_space.shape == (4, width)
+
+
+# ------------------------------------------------------ argument checks (issue 32)
+@each_kind
+def test_lists_of_mixed_integer_scalars_are_actions(kind):
+    envs = gym.make_vec(kind.env_id, num_envs=5)
+    twin = gym.make_vec(kind.env_id, num_envs=5)
+    envs.reset(seed=3)
+    twin.reset(seed=3)
+    mixed = [np.int8(2), np.uint64(1), 0, np.uint8(3), np.array(1, dtype=">i2")]
+    assert_same_steps(envs.step(mixed), twin.step(np.array([2, 1, 0, 3, 1])), *kind.info_keys)
+    mixed = (np.int64(1), np.uint16(2), np.int32(2), 1, np.uint32(0))
+    assert_same_steps(envs.step(mixed), twin.step(np.array([1, 2, 2, 1, 0])), *kind.info_keys)
+
+
+@each_kind
+@pytest.mark.parametrize(
+    "value", [10**400, -(10**400), 10**5000], ids=["1e400", "-1e400", "1e5000"]
+)
+@pytest.mark.parametrize("keyword", ["step_penalty", "bump_penalty"])
+def test_a_penalty_too_big_for_a_float_is_refused_by_name(kind, keyword, value):
+    with pytest.raises(ValueError, match=f"^{keyword} must be a finite number >= 0, got a"):
+        gym.make_vec(kind.env_id, num_envs=2, **{keyword: value})
+    with pytest.raises(ValueError, match=r"^step_penalty \+ bump_penalty must be finite"):
+        gym.make_vec(kind.env_id, num_envs=2, step_penalty=1e308, bump_penalty=1e308)
+
+
+@each_kind
+@pytest.mark.parametrize(
+    ("keyword", "value"),
+    [("num_envs", 10**5000), ("max_episode_steps", -(10**5000))],
+    ids=["num_envs", "max_episode_steps"],
+)
+def test_counts_beyond_int64_are_refused_by_name_in_one_line(kind, keyword, value):
+    with pytest.raises(ValueError, match=f"^{keyword} must be .*, got a.* integer of 16610 bits$"):
+        kind.vector_class(**{"num_envs": 2, keyword: value})

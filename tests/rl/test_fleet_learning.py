@@ -176,3 +176,15 @@ def test_the_learned_policy_breaks_standoffs_with_its_random_actions():
     assert learned.sum_of_costs < randomly.sum_of_costs / 2
     with pytest.raises(ValueError, match="epsilon must be in"):
         greedy_fleet_policy(result.q, epsilon=1.5)
+
+
+def test_a_fleets_table_is_checked_with_its_own_actions_and_masks():
+    """A fleet's table has five actions (sixteen masks of them over neighbours): an 86 x 86
+    floor fits a single robot's budget but not a fleet's, a 43 x 43 one not with masks."""
+    from warehouse_phys.rl.qlearning import check_training_memory
+
+    check_training_memory(86, 86, 0)  # four actions: 1.6 GiB
+    with pytest.raises(ValueError, match=r"86x86 floor needs a Q-table of 2\.04 GiB"):
+        new_fleet_q_table(86, 86, "local")
+    with pytest.raises(ValueError, match=r"43x43 floor needs a Q-table of 2\.04 GiB"):
+        new_fleet_q_table(43, 43, "neighbours")

@@ -4,7 +4,9 @@ Skipped unless the extra is installed (``pip install -e ".[sb3]"``); ``.ci/run``
 installs it and runs this file.
 """
 
+import textwrap
 import warnings
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -14,15 +16,17 @@ pytest.importorskip("stable_baselines3", reason='needs the sb3 extra: pip instal
 supersuit = pytest.importorskip("supersuit", reason='needs the sb3 extra: pip install -e ".[sb3]"')
 torch = pytest.importorskip("torch", reason='needs the sb3 extra: pip install -e ".[sb3]"')
 
-from stable_baselines3 import DQN, PPO  # noqa: E402
+from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.utils import set_random_seed  # noqa: E402
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor  # noqa: E402
 
 import warehouse_phys  # noqa: E402
+import warehouse_phys.rl.sb3 as sb3_module  # noqa: E402
 from warehouse_phys import fleet  # noqa: E402
 from warehouse_phys.rl.sb3 import SB3VecEnv, black_death, vec_env  # noqa: E402
 
 GRID_ID, PHYSICS_ID = warehouse_phys.GRID_ENV_ID, warehouse_phys.PHYSICS_ENV_ID
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(autouse=True)
@@ -133,27 +137,97 @@ def test_bad_arguments_are_refused():
         vec_env(native, num_envs=3)
 
 
-# ---------------------------------------------------------------- learning
-@pytest.mark.slow
-def test_ppo_learns_the_default_floor_on_the_adapter():
-    envs = vec_env(GRID_ID, num_envs=8, seed=0, observation="onehot")
-    model = PPO("MlpPolicy", envs, seed=0, n_steps=128, batch_size=256, device="cpu")
-    before = greedy_results(model, GRID_ID, observation="onehot")
-    model.learn(20_000)
-    after = greedy_results(model, GRID_ID, observation="onehot")
-    assert before[1] < 6  # the untrained policy reaches few packages
-    assert after[1] == 12  # every package, in about 4 s on one core
-    assert after[0] >= 10
+# ---------------------------------------------------------------- the recipes
+def readme_sb3_blocks():
+    """The README's Stable-Baselines3 blocks (plain fences: ``test_packaging`` runs only the
+    ``python`` ones, and these need the extra), by the algorithm they import."""
+    blocks, lines, plain = [], None, False  # lines: the open block's, if one is open
+    for line in (ROOT / "README.md").read_text().splitlines(keepends=True):
+        if lines is None:
+            if line.startswith("```"):
+                lines, plain = [], line == "```\n"
+        elif line == "```\n":
+            if plain:
+                blocks.append("".join(lines))
+            lines = None
+        else:
+            lines.append(line)
+    return {
+        algorithm: block
+        for block in blocks
+        for algorithm in ("PPO", "DQN")
+        if f"from stable_baselines3 import {algorithm}\n" in block
+    }
+
+
+def docstring_recipes():
+    """Every literal block (after a line ending in ``::``) of ``warehouse_phys.rl.sb3``'s
+    docstring, dedented, in order."""
+    lines = sb3_module.__doc__.splitlines()
+    blocks = []
+    for i, line in enumerate(lines):
+        if line.rstrip().endswith("::"):
+            body = []
+            for following in lines[i + 1 :]:
+                if following.strip() and not following.startswith("    "):
+                    break
+                body.append(following)
+            blocks.append(textwrap.dedent("\n".join(body)).strip() + "\n")
+    return blocks
+
+
+def run_block(block):
+    """Run ``block`` as a script's body and give back its names."""
+    names = {"__name__": "recipe"}
+    exec(compile(block, "recipe", "exec"), names)
+    return names
+
+
+def test_the_readme_blocks_are_the_docstring_recipes():
+    readme, recipes = readme_sb3_blocks(), docstring_recipes()
+    assert set(readme) == {"PPO", "DQN"}
+    assert readme["PPO"] in recipes
+    assert readme["DQN"] in recipes
 
 
 @pytest.mark.slow
-def test_dqn_with_a_step_penalty_stays_optimal_at_100k_steps():
+def test_the_readme_ppo_block_learns_the_default_floor_as_its_comment_says():
+    block = readme_sb3_blocks()["PPO"]
+    assert "# all 12 targets reached, at least 10 by a shortest path" in block
+    model = run_block(block)["model"]
+    assert model.num_timesteps >= 20_000
+    shortest, reached = greedy_results(model, GRID_ID, observation="onehot")
+    assert reached == 12  # in about 5 s on one core
+    assert shortest >= 10
+
+
+@pytest.mark.slow
+def test_the_readme_dqn_block_stays_optimal_at_100k_steps():
     # With the sparse reward alone DQN's defaults learn this floor by 50k steps and
     # lose it again by 100k (0 of 12 targets); with a step penalty they keep it.
     # About a minute on one core.
-    envs = vec_env(GRID_ID, num_envs=1, seed=0, step_penalty=0.1)
-    model = DQN("MlpPolicy", envs, seed=0, device="cpu").learn(100_000)
+    block = readme_sb3_blocks()["DQN"]
+    assert "# all 12 targets by a shortest path" in block
+    model = run_block(block)["model"]
     assert greedy_results(model, GRID_ID) == (12, 12)
+
+
+def test_every_other_recipe_of_the_module_docstring_runs_as_written():
+    """The recipes the README does not hold (the fleet's), run in order in one namespace,
+    as a reader pasting them into one session would; the README's are run above."""
+    readme = set(readme_sb3_blocks().values())
+    others = [recipe for recipe in docstring_recipes() if recipe not in readme]
+    assert len(others) == 2  # SuperSuit with one shared policy; black_death
+    names = {"__name__": "recipe"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # from SuperSuit's own code
+        exec(compile(others[0], "supersuit recipe", "exec"), names)
+        assert names["model"].num_timesteps >= 2_048
+        assert names["envs"].num_envs == 8  # 4 robots x 2 fleets, one policy
+        exec(compile(others[1], "black_death recipe", "exec"), names)
+        envs = names["envs"]
+        envs.reset()
+        envs.step(np.zeros(envs.num_envs, dtype=np.int64))
 
 
 # ---------------------------------------------------------------- SuperSuit

@@ -210,8 +210,50 @@ def test_throughput_figure_shows_each_step_its_rolling_mean_and_the_throughput()
     assert list(raw.get_ydata()) == deliveries.tolist()
     assert mean.get_ydata()[-1] == 2.0
     assert level.get_ydata()[0] == 2.0
-    assert "throughput 2.00 deliveries/step" in [t.get_text() for t in ax.get_legend().texts]
+    (legend,) = figure.legends
+    assert "throughput 2.00 deliveries/step" in [t.get_text() for t in legend.texts]
     assert "\n" in ax.get_title()  # a long title wraps rather than being cut off
+
+
+def within(inner, outer):
+    """Whether the box ``inner`` lies inside ``outer`` (display coordinates)."""
+    return bool((outer.min <= inner.min).all() and (inner.max <= outer.max).all())
+
+
+LONG_SUMMARY = (
+    "pibt, 1,000 robots on warehouse-large-140-500, 256 steps (new_package): throughput "
+    "1.39 deliveries/step, 89 deliveries, 507 waits, 0 refused moves; 990/1,000 delivered "
+    "(3 walled off), makespan 256, sum of costs 12,345 against 10,000 on shortest paths"
+)
+
+
+@pytest.mark.parametrize(
+    "deliveries",
+    [np.zeros(256), np.full(256, 9.0), np.r_[np.zeros(100), np.full(156, 5.0)],
+     np.random.default_rng(0).poisson(4, 256).astype(float)],
+    ids=["nothing delivered", "steady", "late start", "busy"],
+)  # fmt: skip
+@pytest.mark.parametrize(
+    "title",
+    [LONG_SUMMARY, "qtable.npz, 4 robots on /a/long/path/with_no_spaces/" + "x" * 90 + ".txt",
+     ""],
+    ids=["summary", "unbroken path", "no title"],
+)  # fmt: skip
+def test_the_throughput_title_shows_whole_and_the_legend_stays_off_the_data(deliveries, title):
+    figure = throughput_figure(deliveries, title)
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    (ax,) = figure.axes
+    shown = ax.title.get_window_extent(renderer)
+    page = figure.bbox
+    assert within(shown, page)
+    assert ax.get_title().replace("\n", "").replace(" ", "") == (
+        title or "Throughput over time"
+    ).replace(" ", "")  # wrapped, nothing dropped
+    (legend,) = figure.legends
+    box = legend.get_window_extent(renderer)
+    assert not box.overlaps(ax.get_window_extent(renderer))  # outside the axes
+    assert within(box, page)
 
 
 def test_congestion_figure_fits_the_floors_shape_and_greys_the_shelves():

@@ -34,7 +34,8 @@ tasks finished a step, beside the published figure where the instance is one of
 (:mod:`warehouse_phys.rules.lorr_output`), which its own tools and viewer read.
 ``--moves rotate`` gives the robots the competition's model (turn in place, drive
 forward), on any floor. ``summary.json`` records the CPU time of the reset, of the
-first step and the median and slowest of the others (frames apart).
+first step and the median and slowest of the others (frames apart), and of the frames.
+SIGTERM stops it as Ctrl-C does (exit status 143).
 
 One command line: its length is its options, its measures and its run folder.
 """
@@ -57,7 +58,11 @@ from warehouse_phys.apps.cli import (
     ArgumentParser,
     UsageError,
     bounded_int,
+    floor_from_layout,
+    interruption,
     open_run_folder,
+    stops_on_sigterm,
+    written_note,
 )
 from warehouse_phys.envs.fleet import DELIVERY_MODES, WarehouseFleetEnv, parallel_env
 from warehouse_phys.rl.fleet_evaluation import (
@@ -70,6 +75,7 @@ from warehouse_phys.rl.fleet_evaluation import (
 )
 from warehouse_phys.rules.headings import MOVE_MODELS
 from warehouse_phys.rules.instances import PUBLISHED_FIGURES
+from warehouse_phys.rules.layouts import FLEET_PRESETS, PRESETS
 from warehouse_phys.rules.lorr_output import RunRecord, actual_actions, write_output
 
 PROG = "python -m warehouse_phys.simulate"
@@ -117,6 +123,8 @@ class Simulation:
     #: CPU seconds of the reset, and of each step (policy and environment, no frames).
     reset_seconds: float = 0.0
     step_seconds: np.ndarray | None = None
+    #: CPU seconds of drawing each frame.
+    frame_seconds: np.ndarray | None = None
     #: ``"grid"`` or ``"rotate"``.
     moves: str = "grid"
     #: An instance run: the instance's name and the tasks finished at each step.
@@ -200,14 +208,18 @@ class Simulation:
         )
 
     def timing(self) -> dict[str, float]:
-        """CPU seconds: the reset, the first step, the median and the slowest of the others."""
+        """CPU seconds: the reset, the first step, the median and the slowest of the others
+        (no step counts a frame); the frames' drawing, all together and the median one."""
         times = np.zeros(0) if self.step_seconds is None else self.step_seconds
+        frames = np.zeros(0) if self.frame_seconds is None else self.frame_seconds
         later = times[1:] if len(times) > 1 else times
         return {
             "reset": self.reset_seconds,
             "first_step": float(times[0]) if len(times) else 0.0,
             "median_step": float(np.median(later)) if len(later) else 0.0,
             "max_step": float(later.max()) if len(later) else 0.0,
+            "frames": float(frames.sum()),
+            "median_frame": float(np.median(frames)) if len(frames) else 0.0,
         }
 
     def to_json(self) -> dict[str, Any]:
@@ -328,10 +340,14 @@ def simulate(
     # The steps after which a frame is taken (0: at the reset), evenly spread.
     shots = np.unique(np.linspace(0, steps, min(frames, steps + 1)).round().astype(int))
 
+    frame_seconds: list[float] = []
+
     def picture() -> None:
+        begun = time.process_time()
         pictures.append(fleet_map_frame(grid, env.robot_cells, env.package_cells, cell_px=cell_px,
                                         parked=env.parked, on_floor=env.on_floor,
                                         headings=env.robot_headings))  # fmt: skip
+        frame_seconds.append(time.process_time() - begun)
 
     if frames:
         picture()
@@ -382,6 +398,7 @@ def simulate(
         cpu_seconds=float(sum(step_seconds)),
         reset_seconds=reset_seconds,
         step_seconds=np.array(step_seconds),
+        frame_seconds=np.array(frame_seconds),
         moves=env.moves,
         instance=None if env.instance is None else env.instance.name,
         tasks=None if errands is None else np.array(tasks_at, dtype=np.int64),
@@ -503,10 +520,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@stops_on_sigterm
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+    """Run the command line; returns the exit status: 0, 2 for a bad command line, 1 when
+    a file cannot be written, 130 on Ctrl-C and 143 on SIGTERM (saying what was written;
+    a new run folder left empty is removed)."""
     from warehouse_phys.files.runfolder import RunFolderError, RunWriteError
 
+    folder = None
     try:
         args = build_parser().parse_args(argv)
         env, policy = _setup(args)
@@ -539,9 +560,10 @@ def main(argv: list[str] | None = None) -> int:
     except RunWriteError as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as interrupt:
+        stopped, status = interruption(interrupt)
+        print(f"{PROG}: {stopped}; {written_note(folder)}", file=sys.stderr)
+        return status
     print(result.summary())
     if len(runs) > 1:
         print("against the baselines, on the same floor, seed and steps:")
@@ -564,7 +586,7 @@ def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
     elif args.layout is None:
         floor = {"grid_rows": args.rows or 4, "grid_cols": args.cols or 5}
     else:
-        floor = {"layout": args.layout}
+        floor = {"layout": _fleet_layout(args.layout)}
     if args.steps is None:
         args.steps = DEFAULT_STEPS if args.instance is None else INSTANCE_STEPS
     if args.instance is None:
@@ -578,6 +600,21 @@ def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
     except (ValueError, TypeError, OSError) as error:
         raise UsageError(str(error).splitlines()[0]) from None
     return env, policy
+
+
+def _fleet_layout(name: str) -> str | tuple[str, ...]:
+    """The fleet's ``layout=`` for ``--layout name``: a preset's name or a map's path as
+    given (the fleet reads them), else a layout text file's rows, read as train, play and
+    sweep read them.
+
+    Raises:
+        UsageError: for a name that is neither a preset nor a file, or a file that is not
+            a layout.
+    """
+    if name in PRESETS or name in FLEET_PRESETS or name.endswith(".map"):
+        return name
+    rows = floor_from_layout(name).layout
+    return name if rows is None else rows
 
 
 def _compare(args: argparse.Namespace, env: WarehouseFleetEnv) -> bool:
@@ -604,7 +641,7 @@ def _floor_label(args: argparse.Namespace) -> str:
         return Path(args.instance).stem
     if args.layout is None:
         return f"{args.rows or 4}x{args.cols or 5}"
-    return Path(args.layout).stem if args.layout.endswith(".map") else Path(args.layout).name
+    return Path(args.layout).stem  # a preset's name, a map's or a layout file's stem
 
 
 def _run(

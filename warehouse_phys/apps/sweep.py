@@ -21,10 +21,28 @@ status 1 and says how many failed. Ray Tune comes with the ``ray`` extra
 (``pip install "warehouse_phys[ray]"``); without it the command exits with
 status 2 and says so.
 
-Nothing waits for resources that cannot come: ``--cpus-per-trial`` beyond the
-machine's (or the cluster's) CPUs is refused, and an ``--address`` where no Ray
-cluster answers fails within seconds, each in one line. On SIGINT or SIGTERM
-the Ray processes the sweep started are shut down before it exits.
+Nothing waits for resources that cannot come: a grid of more than
+:data:`MAX_TRIALS` trials and ``--cpus-per-trial`` beyond the machine's (or the
+cluster's) CPUs are refused before anything is built, and an ``--address`` where
+no Ray cluster answers fails within seconds, each in one line. On SIGINT or
+SIGTERM the Ray processes the sweep started are shut down before it exits.
+
+A killed driver (SIGKILL) cannot shut Ray down: its workers, trials' included,
+live on for seconds, Ray's agents for a minute. Running the sweep again in the
+same folder at once is safe all the same:
+
+- The driver holds ``sweep.lock`` in the sweep folder (``flock``) and writes its
+  pid and a token new to this run there. A sweep into the folder of a live one
+  is refused, naming its pid; a killed driver's lock, freed by the operating
+  system, is taken over (:func:`take_sweep_lock`).
+- Each trial carries its run's token and compares it with the lock file's once
+  it holds its run folder's lock, before it removes or writes anything there: a
+  worker of an earlier run stops, the folder untouched (:class:`TrialFolder`).
+- The driver reads a finished trial's folder under a shared lock, so a folder
+  that a lingering worker holds is not finished but run again, the new worker
+  waiting up to :data:`FOLDER_WAIT` for the old one to let go.
+- A trial is finished only if its ``qtable.npz`` loads
+  (:func:`~warehouse_phys.rl.qtable_file.load_q_table`) and is its configuration's.
 
 One command line over Ray Tune: its length is Ray's set-up and shut-down, the trials
 and the results tables.
@@ -35,6 +53,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import fcntl
 import importlib.util
 import io
 import itertools
@@ -46,6 +65,7 @@ import socket
 import sys
 import threading
 import time
+import uuid
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
@@ -60,6 +80,7 @@ from warehouse_phys.apps.cli import (
 )
 from warehouse_phys.apps.runs import ENVIRONMENTS, RUN_FILES, SUMMARY_FILE, TABLE_FILE, Floor
 from warehouse_phys.files.atomic import TEMPORARY_PREFIX, TEMPORARY_SUFFIX, atomic_write_text
+from warehouse_phys.files.runfolder import RunFolder, RunFolderError
 from warehouse_phys.rl.qlearning import QLearningConfig, check_training_memory
 from warehouse_phys.rules.grid import DEFAULT_COLS, DEFAULT_ROWS, MAX_SIDE, MIN_SIDE
 from warehouse_phys.rules.layouts import PRESETS
@@ -70,10 +91,17 @@ DEFAULT_SWEEPS_DIR = Path("sweeps")
 #: The floor named ``default`` in ``--layout``: the plain floor of ``--rows`` x ``--cols``.
 DEFAULT_FLOOR = "default"
 RESULTS_CSV, RESULTS_JSON, SUMMARY_PNG = "results.csv", "results.json", "summary.png"
-#: What a sweep folder may hold: the sweep's tables and figure, its run folders and Tune's.
-SWEEP_ENTRIES = frozenset({RESULTS_CSV, RESULTS_JSON, SUMMARY_PNG, "runs", "tune"})
+#: The driver's lock file in the sweep folder: its pid and its run's token.
+LOCK_FILE = "sweep.lock"
+#: What a sweep folder may hold: the sweep's tables, figure and lock, its run folders and Tune's.
+SWEEP_ENTRIES = frozenset({RESULTS_CSV, RESULTS_JSON, SUMMARY_PNG, LOCK_FILE, "runs", "tune"})
 #: Most seeds in one ``--seeds``: each is a trial (times the other settings) and a folder.
 MAX_SEEDS = 10_000
+#: Most trials in one sweep [trials]: each is a Tune trial, a run folder and a row.
+MAX_TRIALS = 10_000
+#: How long a trial waits for its run folder while another process holds it (a
+#: lingering worker of a killed sweep, which Ray ends within a minute or so) [s].
+FOLDER_WAIT = 120.0
 #: How long ``--address host:port`` may take to accept a connection [s].
 CONNECT_TIMEOUT = 5.0
 #: The columns of ``results.csv``, in order.
@@ -124,8 +152,9 @@ class Trial:
             f"{self.episodes} episodes"
         )
 
-    def to_job(self, sweep_dir: Path, gif: bool) -> dict[str, Any]:
-        """What a worker needs, as plain values (sent to Ray workers)."""
+    def to_job(self, sweep_dir: Path, gif: bool, run: str | None = None) -> dict[str, Any]:
+        """What a worker needs, as plain values (sent to Ray workers); with ``run``, the
+        token of the sweep's run (see :func:`take_sweep_lock`), which the worker checks."""
         return {
             "env": self.env,
             "floor": asdict(self.floor),
@@ -138,7 +167,74 @@ class Trial:
             "folder": str((sweep_dir / self.folder).resolve()),
             "gif": gif,
             "name": self.name,
+            "lock": str((sweep_dir / LOCK_FILE).resolve()),
+            "run": run,
         }
+
+
+class SupersededError(RuntimeError):
+    """A trial of an earlier run of the sweep, whose folder a newer run owns now."""
+
+
+class TrialFolder(RunFolder):
+    """A trial's run folder: waits for it while another process holds it, and is
+    touched only while ``run`` is the token in ``lock`` (the sweep's current run).
+
+    Without ``run``, no token is checked (a trial run outside a sweep).
+    """
+
+    def __init__(self, path: str | os.PathLike[str], lock: str, run: str | None) -> None:
+        super().__init__(path, RUN_FILES, overwrite=True)  # a failed try's files go
+        self.lock, self.run = lock, run
+
+    def open(self) -> RunFolder:
+        """:meth:`RunFolder.open`, retried for up to :data:`FOLDER_WAIT` while another
+        process holds the folder's lock.
+
+        Raises:
+            SupersededError: if the sweep has moved on to a newer run.
+            RunFolderError, RunWriteError: as :meth:`RunFolder.open`.
+        """
+        deadline = time.monotonic() + FOLDER_WAIT
+        while True:
+            try:
+                return super().open()
+            except RunFolderError:
+                if time.monotonic() > deadline or not _held_by_another(self.path):
+                    raise
+            time.sleep(0.5)
+
+    def _clean(self) -> None:
+        # Here the folder is locked and nothing is removed yet: the one place where the
+        # check cannot race with a newer run's driver, which reads the folder under a lock.
+        if self.run is not None:
+            try:
+                current = Path(self.lock).read_text(encoding="utf-8").strip()
+            except OSError:
+                current = ""
+            if current != self.run:
+                raise SupersededError(
+                    f"{self.path}: the sweep's run {self.run!r} is over; a newer run "
+                    f"({current or 'none'!r}) owns the folder"
+                )
+        super()._clean()
+
+
+def _held_by_another(folder: Path) -> bool:
+    """Whether a process holds the lock of ``folder`` (a run writing it)."""
+    try:
+        handle = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False
+    finally:
+        os.close(handle)  # releases the lock just taken too
+    return False
 
 
 def run_trial(job: dict[str, Any]) -> dict[str, Any]:
@@ -149,14 +245,13 @@ def run_trial(job: dict[str, Any]) -> dict[str, Any]:
     Returns the trial's row of the results table.
     """
     from warehouse_phys.apps.runs import train_run
-    from warehouse_phys.files.runfolder import RunFolder
 
     floor_fields = dict(job["floor"])
     if floor_fields.get("layout") is not None:
         floor_fields["layout"] = tuple(floor_fields["layout"])
     floor = Floor(**floor_fields)
     config = QLearningConfig(**job["config"])
-    folder = RunFolder(job["folder"], RUN_FILES, overwrite=True)  # a failed try's files go
+    folder = TrialFolder(job["folder"], job["lock"], job.get("run"))
     with folder:
         outcome = train_run(folder, floor, job["env"], config, gif=job["gif"])
     return _measures(outcome.summary)
@@ -254,11 +349,18 @@ def _seeds(text: str) -> list[int]:
     return list(range(first, last + 1))
 
 
-def trials_from_args(args: argparse.Namespace) -> list[Trial]:
-    """Every combination the arguments ask for, each with its folder name.
+#: One configuration of the grid but its seeds: environment, floor's name, floor,
+#: learning rate, discount and the episode counts to train for.
+Setting = tuple[str, str, Floor, float, float, list[int]]
+
+
+def settings_from_args(args: argparse.Namespace) -> list[Setting]:
+    """Every combination the arguments ask for but the seeds, each checked once: what a
+    sweep is, before its trials are built.
 
     Raises:
-        UsageError: for a bad floor, hyper-parameter, or a floor too big to train on.
+        UsageError: for a bad floor, hyper-parameter, a floor too big to train on, or
+            a grid of more than :data:`MAX_TRIALS` trials (before any trial is built).
     """
     floors: dict[str, Floor] = {}
     for name in dict.fromkeys(args.layout):  # in order, without repeats
@@ -267,21 +369,39 @@ def trials_from_args(args: argparse.Namespace) -> list[Trial]:
         else:
             floor = floor_from_layout(name)
             floors[floor.label or name] = floor
-    trials = []
-    for env, (floor_name, floor), alpha, gamma, seed in itertools.product(
+    settings: list[Setting] = []
+    for env, (floor_name, floor), alpha, gamma in itertools.product(
         dict.fromkeys(args.env), floors.items(), dict.fromkeys(args.alpha),
-        dict.fromkeys(args.gamma), args.seeds,
+        dict.fromkeys(args.gamma),
     ):  # fmt: skip
-        episode_counts = args.episodes or [
+        episode_counts = list(dict.fromkeys(args.episodes or [
             PRESETS[floor.preset].training_episodes if floor.preset else 1000
-        ]
-        for episodes in dict.fromkeys(episode_counts):
+        ]))  # fmt: skip
+        grid = floor.grid()
+        for episodes in episode_counts:  # the seeds, checked by --seeds, change nothing here
             try:
-                QLearningConfig(episodes=episodes, alpha=alpha, gamma=gamma, seed=seed)
-                grid = floor.grid()
+                QLearningConfig(episodes=episodes, alpha=alpha, gamma=gamma, seed=args.seeds[0])
                 check_training_memory(grid.rows, grid.cols, episodes)
             except ValueError as error:
                 raise UsageError(str(error)) from None
+        settings.append((env, floor_name, floor, alpha, gamma, episode_counts))
+    count = sum(len(setting[-1]) for setting in settings) * len(args.seeds)
+    if count > MAX_TRIALS:
+        raise UsageError(
+            f"--env, --layout, --alpha, --gamma, --episodes and --seeds ask for {count:,} "
+            f"trials, more than the {MAX_TRIALS:,} a sweep may run; split it into smaller sweeps"
+        )
+    return settings
+
+
+def expand_trials(settings: Sequence[Setting], seeds: Sequence[int]) -> list[Trial]:
+    """The trials of ``settings`` (from :func:`settings_from_args`) times ``seeds``, in
+    order, each with its folder name."""
+    trials = []
+    for (env, floor_name, floor, alpha, gamma, episode_counts), seed in itertools.product(
+        settings, seeds
+    ):
+        for episodes in episode_counts:
             name = f"{env}-{floor_name}-a{alpha:g}-g{gamma:g}-e{episodes}-seed{seed}"
             trials.append(
                 Trial(env, floor_name, floor, alpha, gamma, episodes, seed, f"runs/{name}")
@@ -289,22 +409,45 @@ def trials_from_args(args: argparse.Namespace) -> list[Trial]:
     return trials
 
 
+def trials_from_args(args: argparse.Namespace) -> list[Trial]:
+    """Every trial the arguments ask for, each with its folder name.
+
+    Raises:
+        UsageError: as :func:`settings_from_args`.
+    """
+    return expand_trials(settings_from_args(args), args.seeds)
+
+
 # ----------------------------------------------------------------- results
 def finished_row(trial: Trial, sweep_dir: Path) -> dict[str, Any] | None:
-    """The row of a trial whose folder already holds a complete run of its configuration."""
+    """The row of a trial whose folder already holds a complete run of its configuration:
+    a summary of its settings and a table that loads and is that run's; ``None`` otherwise,
+    and while another process (a lingering worker) holds the folder."""
+    from warehouse_phys.rl.qtable_file import load_q_table
+
     folder = sweep_dir / trial.folder
+    config = {"episodes": trial.episodes, "alpha": trial.alpha, "gamma": trial.gamma,
+              "seed": trial.seed}  # fmt: skip
+    env_id = trial.floor.env_id(trial.env)
     try:
-        summary = json.loads((folder / SUMMARY_FILE).read_text(encoding="utf-8"))
-        config = summary["config"]
-        same = (
-            config == {"episodes": trial.episodes, "alpha": trial.alpha, "gamma": trial.gamma,
-                       "seed": trial.seed}
-            and summary["env_id"] == trial.floor.env_id(trial.env)
-            and (folder / TABLE_FILE).is_file()
-        )  # fmt: skip
-        return _row(trial, "done", _measures(summary)) if same else None
-    except (OSError, ValueError, KeyError, TypeError):
+        handle = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
         return None
+    try:
+        # Shared: excludes a worker, whose run folder locks the folder exclusively.
+        fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        summary = json.loads((folder / SUMMARY_FILE).read_text(encoding="utf-8"))
+        _, metadata = load_q_table(folder / TABLE_FILE)  # a truncated table raises
+        same = (
+            summary["config"] == config
+            and summary["env_id"] == metadata["env_id"] == env_id
+            and {name: metadata[name] for name in config} == config
+        )
+        return _row(trial, "done", _measures(summary)) if same else None
+    except (OSError, ValueError, KeyError, TypeError):  # QTableError is a ValueError
+        return None
+    finally:
+        os.close(handle)
 
 
 def _row(trial: Trial, status: str, measures: dict[str, Any], error: str = "") -> dict[str, Any]:
@@ -555,6 +698,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     try:
         args = build_parser().parse_args(argv)
+        settings = settings_from_args(args)  # refuses a grid too big before building it
         try:
             if (
                 importlib.util.find_spec("ray") is None
@@ -565,11 +709,11 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(
                 f"the sweep runs on Ray Tune, which is not installed: {INSTALL_RAY}"
             ) from None
-        trials = trials_from_args(args)
         if args.address is None:
             check_cpus_per_trial(args.cpus_per_trial, os.cpu_count() or 1, "this machine")
         else:
             check_address(args.address)
+        trials = expand_trials(settings, args.seeds)
         sweep_dir = args.out or DEFAULT_SWEEPS_DIR / time.strftime("%Y%m%d-%H%M%S")
         check_sweep_folder(sweep_dir)
         return _sweep(args, trials, sweep_dir)
@@ -586,13 +730,59 @@ def main(argv: list[str] | None = None) -> int:
         return 128 + (signal.SIGTERM if terminated else signal.SIGINT)
 
 
+def take_sweep_lock(sweep_dir: Path) -> tuple[int, str]:
+    """Lock the sweep folder for this driver: ``(handle, token)``; closing the handle
+    (or the process ending, however it ends) releases the lock.
+
+    The lock file then holds this process's pid and a token new to this run,
+    which the run's trials carry (see the module's docstring). A lock left by a
+    killed driver is free, and taken over.
+
+    Raises:
+        UsageError: naming the pid of the live sweep that holds the folder.
+        OSError: if the lock file cannot be created or written.
+    """
+    handle = os.open(sweep_dir / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        token = f"{os.getpid()} {uuid.uuid4().hex}"
+        os.ftruncate(handle, 0)  # rewritten in place: the lock is this file's, not its name's
+        os.pwrite(handle, f"{token}\n".encode(), 0)
+        os.fsync(handle)
+    except BlockingIOError:
+        holder = os.pread(handle, 100, 0).decode("utf-8", "replace").split()
+        os.close(handle)
+        raise UsageError(
+            f"--out {sweep_dir} is in use by the sweep of process "
+            f"{holder[0] if holder else 'unknown'}; wait for it to end or choose another folder"
+        ) from None
+    except BaseException:
+        os.close(handle)
+        raise
+    return handle, token
+
+
 def _sweep(args: argparse.Namespace, trials: list[Trial], sweep_dir: Path) -> int:
     created = not sweep_dir.exists()
     try:
         sweep_dir.mkdir(parents=True, exist_ok=True)
+        handle, run = take_sweep_lock(sweep_dir)
     except OSError as error:
         print(f"{PROG}: error: cannot write {sweep_dir}: {error.strerror}", file=sys.stderr)
         return 1
+    try:
+        return _run_sweep(args, trials, sweep_dir, run)
+    except (RayUnavailableError, UsageError):
+        if created:  # no Ray, no trial: leave no empty folder behind
+            with contextlib.suppress(OSError):
+                (sweep_dir / LOCK_FILE).unlink()
+                sweep_dir.rmdir()
+        raise
+    finally:
+        os.close(handle)
+
+
+def _run_sweep(args: argparse.Namespace, trials: list[Trial], sweep_dir: Path, run: str) -> int:
     rows: dict[str, dict[str, Any]] = {}
     for trial in trials:
         row = finished_row(trial, sweep_dir)
@@ -604,20 +794,14 @@ def _sweep(args: argparse.Namespace, trials: list[Trial], sweep_dir: Path) -> in
               f"finished, {len(pending)} to run")  # fmt: skip
     started = time.perf_counter()
     if pending:
-        try:
-            outcomes = run_on_tune(
-                [trial.to_job(sweep_dir, args.gif) for trial in pending],
-                sweep_dir,
-                address=args.address,
-                cpus_per_trial=args.cpus_per_trial,
-                max_concurrent=args.max_concurrent,
-                quiet=args.quiet,
-            )
-        except (RayUnavailableError, UsageError):
-            if created:  # no Ray, no trial: leave no empty folder behind
-                with contextlib.suppress(OSError):
-                    sweep_dir.rmdir()
-            raise
+        outcomes = run_on_tune(
+            [trial.to_job(sweep_dir, args.gif, run) for trial in pending],
+            sweep_dir,
+            address=args.address,
+            cpus_per_trial=args.cpus_per_trial,
+            max_concurrent=args.max_concurrent,
+            quiet=args.quiet,
+        )
         for trial in pending:
             outcome = outcomes.get(trial.name)
             if isinstance(outcome, dict):

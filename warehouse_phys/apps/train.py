@@ -57,7 +57,9 @@ from warehouse_phys.apps.cli import (
     add_robots_argument,
     bounded_int,
     floor_from_args,
+    interruption,
     open_run_folder,
+    stops_on_sigterm,
 )
 from warehouse_phys.apps.runs import (
     CURVE_FILE,
@@ -71,6 +73,7 @@ from warehouse_phys.apps.runs import (
     train_run,
 )
 from warehouse_phys.drawing.render import NoDisplayError, check_display
+from warehouse_phys.envs.fleet import MAX_PHYSICS_ROBOTS
 from warehouse_phys.files.runfolder import RunFolder, RunFolderError, RunWriteError
 from warehouse_phys.rl.fleet_evaluation import compare_policies
 from warehouse_phys.rl.qlearning import (
@@ -81,6 +84,7 @@ from warehouse_phys.rl.qlearning import (
     evaluate,
     greedy_action,
     load_q_table,
+    table_tail,
 )
 from warehouse_phys.rules.layouts import PRESETS
 
@@ -103,7 +107,8 @@ def _fraction(low_open: bool) -> Any:
                 f"expected a number in {interval}, got {text!r}"
             ) from None
         if not (0 < value <= 1 if low_open else 0 <= value <= 1):
-            raise argparse.ArgumentTypeError(f"expected a number in {interval}, got {value:g}")
+            # as given: 1.0000001 printed with {:g} reads as 1, which is in the interval
+            raise argparse.ArgumentTypeError(f"expected a number in {interval}, got {text}")
         return value
 
     return parse
@@ -196,8 +201,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@stops_on_sigterm
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+    """Run the command line; returns the exit status (130 on Ctrl-C, 143 on SIGTERM)."""
     run: list[RunFolder] = []  # the run folder, once there is one
     try:
         args = build_parser().parse_args(argv)
@@ -211,9 +217,10 @@ def main(argv: list[str] | None = None) -> int:
     except (RunWriteError, NoDisplayError) as error:
         print(f"{PROG}: error: {error}{_written(run)}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted; {_written(run, interrupted=True)}", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM as a Terminated
+        stopped, status = interruption(interrupt)
+        print(f"{PROG}: {stopped}; {_written(run, interrupted=True)}", file=sys.stderr)
+        return status
 
 
 def _written(run: list[RunFolder], *, interrupted: bool = False) -> str:
@@ -289,9 +296,11 @@ def _train_fleet(args: argparse.Namespace, run: list[RunFolder], kind: str, floo
     try:
         floor.make_fleet(kind, robots).close()  # a floor too small for the fleet: say so now
         grid = floor.grid()
-        check_training_memory(grid.rows, grid.cols, config.episodes)
+        tail = table_tail({"robots": robots, "observation": args.observation})
+        check_training_memory(grid.rows, grid.cols, config.episodes, tail=tail)
     except ValueError as error:
-        raise UsageError(str(error)) from None
+        hint = "; --env grid takes more" if kind == "phys" and robots > MAX_PHYSICS_ROBOTS else ""
+        raise UsageError(f"{error}{hint}") from None
     label = f"{floor.label or ''}{'-' if floor.label else ''}{robots}robots"
     folder, outcome = _in_run_folder(
         args, run, kind, label, config.episodes, f"{robots} robots",

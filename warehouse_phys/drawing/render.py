@@ -15,6 +15,7 @@ maps of large fleets and the text frames.
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
 from collections.abc import Collection, Iterable, Sequence
@@ -621,6 +622,34 @@ def map_cell_px(rows: int, cols: int, width_px: int = MAP_FRAME_WIDTH_PX) -> int
     return int(np.clip(width_px // max(rows, cols), 1, 24))
 
 
+@functools.lru_cache(maxsize=4)  # a few floors: a run and its baselines share one
+def _floor_image(rows: int, cols: int, px: int, packed_shelves: bytes) -> np.ndarray:
+    """The floor and its shelves (``packed_shelves``: the shelf mask through
+    ``np.packbits``) at ``px`` pixels a cell, read-only. Cached by content: a large map's
+    tens of thousands of shelves are painted once, not on every frame."""
+    packed = np.frombuffer(packed_shelves, dtype=np.uint8)
+    shelves = np.unpackbits(packed, count=rows * cols).reshape(rows, cols).astype(bool)
+    cells = np.empty((rows, cols, 3), dtype=np.uint8)
+    cells[:] = MAP_FLOOR
+    cells[shelves] = MAP_SHELF
+    image = np.repeat(np.repeat(cells, px, axis=0), px, axis=1)
+    image.flags.writeable = False
+    return image
+
+
+def _shelf_mask(grid: Any) -> np.ndarray:
+    """``grid``'s shelves as a ``(rows, cols)`` boolean array: a
+    :class:`~warehouse_phys.rules.grid.WarehouseGrid`'s own ``shelf_mask``, else built
+    from ``grid.shelves`` (any collection of cells)."""
+    mask = getattr(grid, "shelf_mask", None)
+    if mask is not None:
+        return np.asarray(mask, dtype=bool)
+    mask = np.zeros((grid.rows, grid.cols), dtype=bool)
+    cells = np.array(list(grid.shelves), dtype=np.int64).reshape(-1, 2)
+    mask[cells[:, 0], cells[:, 1]] = True
+    return mask
+
+
 def fleet_map_frame(
     grid: Any,
     robots: np.ndarray,
@@ -644,6 +673,10 @@ def fleet_map_frame(
     mark on the side it faces, on cells of 3 px or more (a 1- or 2-pixel cell has no
     side to mark).
 
+    The floor and its shelves are drawn once per floor and cell size and copied: a
+    frame costs a copy of the picture and work in proportion to the robots, however
+    many shelves the floor has.
+
     Raises:
         ValueError: if ``cell_px`` is below 1.
     """
@@ -658,35 +691,28 @@ def fleet_map_frame(
     done = np.zeros(n, dtype=bool) if parked is None else np.asarray(parked, dtype=bool)
     waiting = shown & ~done  # robots whose package is still on the floor
     framed = px >= 4  # a parked robot keeps its colour inside a green frame
-    cells = np.empty((rows, cols, 3), dtype=np.uint8)
-    cells[:] = MAP_FLOOR
-    if grid.shelves:
-        shelves = np.array(sorted(grid.shelves))
-        cells[shelves[:, 0], shelves[:, 1]] = MAP_SHELF
-    cells[packages[waiting, 0], packages[waiting, 1]] = MAP_PACKAGE
+    frame = _floor_image(rows, cols, px, np.packbits(_shelf_mask(grid)).tobytes()).copy()
+    # Cell (r, c) is blocks[r, :, c, :]: one fancy index paints a whole cell per robot.
+    blocks = frame.reshape(rows, px, cols, px, 3)
+    blocks[packages[waiting, 0], :, packages[waiting, 1], :] = MAP_PACKAGE
     colours = MAP_ROBOT_COLOURS[np.arange(n) % len(MAP_ROBOT_COLOURS)]
     if not framed:
         colours[done] = MAP_DELIVERED
-    cells[robots[shown, 0], robots[shown, 1]] = colours[shown]
-    frame = np.repeat(np.repeat(cells, px, axis=0), px, axis=1)
+    at = robots[shown]
+    blocks[at[:, 0], :, at[:, 1], :] = colours[shown][:, None, None, :]
     if framed:  # a green frame round each parked robot's cell
-        at = robots[shown & done]
+        r, c = robots[shown & done].T
         border = max(1, px // 6)
-        edge = np.r_[0:border, px - border : px]
-        inside = np.arange(px)
-        for d_row, d_col in ((edge, inside), (inside, edge)):
-            r = at[:, 0, None] * px + d_row  # (parked, len(d_row))
-            c = at[:, 1, None] * px + d_col  # (parked, len(d_col))
-            frame[r[:, :, None], c[:, None, :]] = MAP_DELIVERED
+        for side in (slice(0, border), slice(px - border, px)):
+            blocks[r, side, c, :] = MAP_DELIVERED
+            blocks[r, :, c, side] = MAP_DELIVERED
     if px >= 3:  # packages under robots: a square in the middle of the robot's cell
         occupied = np.zeros((rows, cols), dtype=bool)
-        occupied[robots[shown, 0], robots[shown, 1]] = True
+        occupied[at[:, 0], at[:, 1]] = True
         under = packages[waiting][occupied[packages[waiting, 0], packages[waiting, 1]]]
-        inner = px // 3
-        for d_row in range(inner, px - inner):
-            for d_col in range(inner, px - inner):
-                frame[under[:, 0] * px + d_row, under[:, 1] * px + d_col] = MAP_PACKAGE
+        middle = slice(px // 3, px - px // 3)
+        blocks[under[:, 0], middle, under[:, 1], middle] = MAP_PACKAGE
     if headings is not None and px >= 3:
-        on = robots[shown].astype(np.float64)
+        on = at.astype(np.float64)
         _stamp_headings(frame, px, on, np.asarray(headings, dtype=np.float64)[shown])
     return frame

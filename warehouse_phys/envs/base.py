@@ -37,6 +37,11 @@ _ACTIONS: tuple[Action, ...] = tuple(Action)
 
 _ACTION_RANGE = ", ".join(f"{a.name}={a.value}" for a in Action)
 
+#: The exact types of plain integer scalars, which ``np.fromiter(..., np.int64)`` converts
+#: one by one (never through float) and refuses with ``OverflowError`` beyond int64.
+INTEGER_TYPES = frozenset({int, np.int64, np.int32, np.int16, np.int8, np.uint8,
+                           np.uint16, np.uint32, np.uint64})  # fmt: skip
+
 
 _RESET_OPTIONS = ("start", "target")
 
@@ -93,10 +98,9 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
     ) -> None:
         refuse_durations(cell_px=cell_px)
         self.observation = checked_choice("observation", observation, OBSERVATION_KINDS)
-        #: Subtracted from the reward of every step that does not reach the package.
-        self.step_penalty = checked_penalty("step_penalty", step_penalty)
-        #: Subtracted from the reward of every move a wall or shelf refuses.
-        self.bump_penalty = checked_penalty("bump_penalty", bump_penalty)
+        #: ``step_penalty`` is subtracted from the reward of every step that does not
+        #: reach the package, ``bump_penalty`` from that of every move a wall or shelf refuses.
+        self.step_penalty, self.bump_penalty = checked_penalties(step_penalty, bump_penalty)
         self._penalised = bool(self.step_penalty or self.bump_penalty)
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.grid_rows = self.grid.rows
@@ -308,7 +312,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         cell = Cell(int(row), int(col))
         if not self.grid.contains(cell):
             raise ValueError(
-                f"options[{name!r}] {tuple(cell)} is off the {self.grid_rows}x{self.grid_cols} grid"
+                f"options[{name!r}] ({number_text(cell.row)}, {number_text(cell.col)}) "
+                f"is off the {self.grid_rows}x{self.grid_cols} grid"
             )
         return cell
 
@@ -354,7 +359,7 @@ def checked_penalty(name: str, value: object) -> float:
 
     Raises:
         TypeError: if ``value`` is not a real number (a bool, a string, ``None``, ...).
-        ValueError: if it is negative, infinite or NaN.
+        ValueError: if it is negative, infinite, NaN or an integer too large for a float.
     """
     if isinstance(value, (bool, np.bool_, np.timedelta64)) or not isinstance(
         value, (int, float, np.integer, np.floating)
@@ -362,10 +367,43 @@ def checked_penalty(name: str, value: object) -> float:
         raise TypeError(
             f"{name} must be a real number >= 0, got {value!r} ({type(value).__name__})"
         )
-    number = float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # a Python int beyond 1.8e308
+        number = math.nan
     if not math.isfinite(number) or number < 0:
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        raise ValueError(f"{name} must be a finite number >= 0, got {number_text(value)}")
     return number
+
+
+def checked_penalties(step_penalty: object, bump_penalty: object) -> tuple[float, float]:
+    """``step_penalty`` and ``bump_penalty``, each through :func:`checked_penalty`, as floats.
+
+    Raises:
+        TypeError, ValueError: as :func:`checked_penalty`, naming the penalty; and
+            ``ValueError`` if their sum, what a refused step costs, is infinite.
+    """
+    step = checked_penalty("step_penalty", step_penalty)
+    bump = checked_penalty("bump_penalty", bump_penalty)
+    if not math.isfinite(step + bump):  # two finite halves of an infinite reward
+        raise ValueError(
+            f"step_penalty + bump_penalty must be finite (a bump costs both), "
+            f"got {step!r} + {bump!r}"
+        )
+    return step, bump
+
+
+def number_text(value: object) -> str:
+    """``value`` for an error message: ``repr``, but an integer beyond 64 bits by its size.
+
+    Python refuses to write an int of more than 4300 digits (``str`` raises), and
+    one of 400 digits tells a reader less than its size does.
+    """
+    if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.timedelta64)):
+        bits = int(value).bit_length()
+        if bits > 64:
+            return f"{'a negative' if value < 0 else 'an'} integer of {bits} bits"
+    return repr(value)
 
 
 def checked_choice(name: str, value: object, choices: Sequence[str]) -> str:
@@ -411,20 +449,25 @@ def _checked_action(action: object) -> Action:
             f"invalid action: a masked value ({type(action).__name__}) is no action; "
             f"expected an integer in 0..3 ({_ACTION_RANGE})"
         )
-    is_integer = _is_integer(action) or (
-        isinstance(action, np.ndarray) and action.ndim == 0 and action.dtype.kind in "iu"
-    )
-    if not is_integer:
+    if not is_integer_scalar(action):
         raise TypeError(
             f"invalid action {action!r} of type {type(action).__name__}: "
             f"expected an integer in 0..3 ({_ACTION_RANGE})"
         )
     value = int(action)
     if not 0 <= value < len(_ACTIONS):
-        raise ValueError(
-            f"invalid action {action!r}: expected an integer in 0..3 ({_ACTION_RANGE})"
-        )
+        shown = number_text(action)
+        shown = f"({shown})" if " " in shown else shown  # "an integer of N bits", bracketed
+        raise ValueError(f"invalid action {shown}: expected an integer in 0..3 ({_ACTION_RANGE})")
     return _ACTIONS[value]
+
+
+def is_integer_scalar(value: object) -> bool:
+    """Whether ``value`` is one integer: a Python or numpy integer or a 0-d integer array
+    (in either byte order), but neither a bool nor a duration."""
+    return _is_integer(value) or (
+        isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind in "iu"
+    )
 
 
 def _is_integer(value: object) -> bool:

@@ -10,8 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-_INTEGER_TYPES = frozenset({int, np.int64, np.int32, np.int16, np.int8, np.uint8,
-                            np.uint16, np.uint32, np.uint64})  # fmt: skip
+from warehouse_phys.envs.base import INTEGER_TYPES, number_text
 
 
 class FleetActions:
@@ -32,7 +31,7 @@ class FleetActions:
                 f"actions must be a dict of robot to action, got {type(actions).__name__}"
             )
         # The usual case first: every live robot, in order, with a plain integer.
-        if list(actions) == agents and set(map(type, actions.values())) <= _INTEGER_TYPES:
+        if list(actions) == agents and set(map(type, actions.values())) <= INTEGER_TYPES:
             try:
                 values = np.fromiter(actions.values(), np.int64, len(actions))
             except OverflowError:  # beyond 64 bits: refused below, robot by robot
@@ -66,5 +65,7 @@ class FleetActions:
         if np.ma.is_masked(action):
             raise ValueError(f"{agent}'s action is masked: it has no value")
         if not 0 <= int(action) < self.count:
-            raise ValueError(f"{agent}'s action must be 0..{top} ({top} is WAIT), got {action!r}")
+            raise ValueError(
+                f"{agent}'s action must be 0..{top} ({top} is WAIT), got {number_text(action)}"
+            )
         return int(action)

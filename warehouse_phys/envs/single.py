@@ -53,8 +53,9 @@ class WarehouseGridEnv(WarehouseEnvBase):
     a shelf leaves the robot where it is; it still counts as a step. Python ints, numpy
     integers and 0-d integer arrays (in either byte order) are accepted; anything
     else (a bool, a float, a ``timedelta64``) raises ``TypeError``, an integer
-    outside 0..3 or a masked value raises ``ValueError``, and the environment
-    is unchanged by either.
+    outside 0..3 (``2**63``, ``np.uint64(2**63)`` or one of thousands of digits
+    too) or a masked value (``np.ma.masked``, a masked 0-d array) raises
+    ``ValueError``, and the environment is unchanged by either.
 
     ## Observation Space
     ``MultiDiscrete([R, C, R, C])`` with dtype ``int64``: a fresh array
@@ -92,7 +93,9 @@ class WarehouseGridEnv(WarehouseEnvBase):
 
     Both apply on the same step when a refused move leaves the robot off the
     target: ``-(step_penalty + bump_penalty)``. A value that is not a finite
-    real number >= 0 raises ``TypeError`` or ``ValueError`` naming it.
+    real number >= 0 (an integer too large for a float included) raises
+    ``TypeError`` or ``ValueError`` naming it, and two whose sum is infinite
+    raise ``ValueError``. Numpy numbers are accepted and kept as Python floats.
 
     ## Episode End
     - Termination: the robot stands on the target.
@@ -114,7 +117,7 @@ class WarehouseGridEnv(WarehouseEnvBase):
 
     ## Arguments
     - ``grid_rows`` (int, default 4), ``grid_cols`` (int, default 5): the floor's
-      size; each must be an integer from 2 to 512, or ``TypeError`` or
+      size; each must be an integer from 2 to 2048, or ``TypeError`` or
       ``ValueError`` says why. With a layout they come from it and may be left
       out (given, they must match it).
     - ``layout`` (preset name, list of strings or ``None``): a floor with

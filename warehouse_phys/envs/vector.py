@@ -24,11 +24,14 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from warehouse_phys.drawing.render import DEFAULT_CELL_PX, WarehouseRenderer, ansi_frame
-from warehouse_phys.envs import (
+from warehouse_phys.envs.base import (
+    INTEGER_TYPES,
     OBSERVATION_KINDS,
     checked_choice,
-    checked_penalty,
+    checked_penalties,
     checked_record_path,
+    is_integer_scalar,
+    number_text,
     observation_space,
     onehot,
     recording_world,
@@ -47,6 +50,7 @@ MAX_NUM_ENVS = 2**24
 MAX_PHYSICS_ENVS = 2**16
 
 _ACTIONS: tuple[Action, ...] = tuple(Action)
+_MUST = "actions must be integers in 0..3 (LEFT=0, DOWN=1, RIGHT=2, UP=3)"
 #: Packages drawn from the generator at a time (see ``_draw_slots``).
 TARGET_DRAWS = 4096
 #: A (row, col) pair of int64 as one item, copied whole.
@@ -67,10 +71,13 @@ class WarehouseGridVectorEnv(VectorEnv):
     ## Action Space
     ``MultiDiscrete([4] * num_envs)`` (``single_action_space`` is ``Discrete(4)``):
     LEFT=0, DOWN=1, RIGHT=2, UP=3. ``step`` takes an integer array of shape
-    ``(num_envs,)`` in either byte order (or anything ``numpy.asarray`` makes one
-    of); another shape or dtype raises ``TypeError``/``ValueError``, and so does a
-    value outside 0..3 or a masked one, naming it; a refused step or reset
-    (a bad seed or option) changes nothing.
+    ``(num_envs,)`` in either byte order, a list or tuple of Python or numpy
+    integers (converted one by one, never through float: ``[np.int8(2),
+    np.uint64(1), 0]`` is an action), or anything else ``numpy.asarray`` makes
+    an integer array of. Another shape or dtype raises ``TypeError``/``ValueError``,
+    and so does a bool or a float in a list, a value outside 0..3 (``2**63`` and
+    beyond too) or a masked one, naming the sub-environment; a refused step or
+    reset (a bad seed or option) changes nothing.
 
     ## Observation Space
     ``MultiDiscrete`` of shape ``(num_envs, 4)``, int64: row ``i`` is sub-environment
@@ -101,7 +108,8 @@ class WarehouseGridVectorEnv(VectorEnv):
     first observation with reward 0 and neither flag set.
 
     ``reset(options={"reset_mask": mask})`` restarts only the sub-environments
-    where the boolean array ``mask`` (shape ``(num_envs,)``) is true.
+    where the boolean array ``mask`` (shape ``(num_envs,)``) is true; a mask with
+    no true value or with a masked entry (a ``numpy.ma`` array) raises ``ValueError``.
 
     ``infos`` holds ``"optimal_steps"`` (int64, the fewest actions left to each
     package) and its mask ``"_optimal_steps"``, as ``SyncVectorEnv`` gives them.
@@ -116,7 +124,8 @@ class WarehouseGridVectorEnv(VectorEnv):
     - ``render_mode`` (``None``, ``"rgb_array"`` or ``"ansi"``): ``render()``
       returns a tuple with one frame per sub-environment.
     - Keyword-only: ``observation`` (``"cells"`` or ``"onehot"``), ``step_penalty``
-      and ``bump_penalty`` (finite floats >= 0), as in the single environment.
+      and ``bump_penalty`` (finite numbers >= 0 with a finite sum), checked as in
+      the single environment.
 
     ```python
     import gymnasium as gym
@@ -157,10 +166,9 @@ class WarehouseGridVectorEnv(VectorEnv):
         self.num_envs = _checked_count("num_envs", num_envs, MAX_NUM_ENVS)
         refuse_durations(cell_px=cell_px)
         self.observation = checked_choice("observation", observation, OBSERVATION_KINDS)
-        #: Subtracted from the reward of every step that does not reach the package.
-        self.step_penalty = checked_penalty("step_penalty", step_penalty)
-        #: Subtracted from the reward of every move a wall or shelf refuses.
-        self.bump_penalty = checked_penalty("bump_penalty", bump_penalty)
+        #: ``step_penalty`` is subtracted from the reward of every step that does not
+        #: reach the package, ``bump_penalty`` from that of every move a wall or shelf refuses.
+        self.step_penalty, self.bump_penalty = checked_penalties(step_penalty, bump_penalty)
         self.grid = make_grid(grid_rows, grid_cols, layout)
         self.grid_rows, self.grid_cols = self.grid.rows, self.grid.cols
         if max_episode_steps is None:
@@ -213,7 +221,13 @@ class WarehouseGridVectorEnv(VectorEnv):
     def step(
         self, actions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Move every robot by its action; restart the floors whose episode ended last step."""
+        """Move every robot by its action; restart the floors whose episode ended last step.
+
+        Raises:
+            gymnasium.error.ResetNeeded: if :meth:`reset` was never called.
+            TypeError, ValueError: for actions the class docstring's Action Space
+                refuses, naming the sub-environment; nothing changes then.
+        """
         if self._pos4 is None:
             raise ResetNeeded("call reset() before step()")
         actions = self._checked_actions(actions)
@@ -253,7 +267,7 @@ class WarehouseGridVectorEnv(VectorEnv):
         Raises:
             TypeError, ValueError: for options other than ``reset_mask``, or a
                 mask that is not a boolean array of shape ``(num_envs,)`` with
-                at least one true value; nothing changes then.
+                at least one true value and no masked entry; nothing changes then.
         """
         mask = self._checked_reset_mask(options)
         if mask is not None and self._pos4 is None:
@@ -367,17 +381,13 @@ class WarehouseGridVectorEnv(VectorEnv):
                 f"got shape {actions.shape}"
             )
         if actions.dtype.kind not in "iu":
-            raise TypeError(
-                f"actions must be integers in 0..3 (LEFT=0, DOWN=1, RIGHT=2, UP=3), "
-                f"got dtype {actions.dtype}"
-            )
+            raise TypeError(f"{_MUST}, got dtype {actions.dtype}")
         if not actions.dtype.isnative:  # big-endian on most machines: read as native numbers
             actions = actions.astype(actions.dtype.newbyteorder("="))
         if actions.view(f"u{actions.itemsize}").max() > 3:  # negatives look huge unsigned
             bad = np.flatnonzero((actions < 0) | (actions > 3))
             raise ValueError(
-                f"actions must be integers in 0..3 (LEFT=0, DOWN=1, RIGHT=2, UP=3): "
-                f"sub-environment {bad[0]} got {actions[bad[0]]}"
+                f"{_MUST}: sub-environment {bad[0]} got {actions[bad[0]]}"
                 + (f" (and {len(bad) - 1} more)" if len(bad) > 1 else "")
             )
         # int64 indexes the move table whatever the caller's integers (uint64 + int64
@@ -386,24 +396,49 @@ class WarehouseGridVectorEnv(VectorEnv):
 
     def _actions_array(self, actions: Any) -> np.ndarray:
         """``actions`` (a list, a masked array, ...) as a plain array, or a one-line error."""
-        masked = None
         if isinstance(actions, np.ma.MaskedArray):
-            masked, actions = np.ma.getmaskarray(actions), actions.data
-        elif isinstance(actions, (list, tuple)):  # numpy would make nan of np.ma.masked
-            masked = np.array([item is np.ma.masked for item in actions], dtype=bool)
-        if masked is not None and masked.any():
-            raise ValueError(
-                f"actions must be integers in 0..3 (LEFT=0, DOWN=1, RIGHT=2, UP=3): "
-                f"sub-environment {np.flatnonzero(masked)[0]}'s is masked"
-            )
+            if actions.shape == (self.num_envs,):  # another shape: the caller's shape error
+                self._refuse_masked(np.ma.getmaskarray(actions))
+            return np.asarray(actions.data)
+        if isinstance(actions, (list, tuple)):
+            return self._list_actions(actions)
         try:
             return np.asarray(actions)
+        except (TypeError, ValueError) as error:
+            raise self._no_array(actions, error) from None
+
+    def _list_actions(self, items: list | tuple) -> np.ndarray:
+        """A list of actions as int64, converted item by item when they are integer scalars:
+        numpy would make float64 of ``[np.int8(2), np.uint64(1)]`` and of ``[2**63]``."""
+        if set(map(type, items)) <= INTEGER_TYPES:  # the usual case: one conversion
+            try:
+                return np.fromiter(items, np.int64, len(items))
+            except OverflowError:  # beyond int64, so beyond 0..3: name the first such
+                bad = next(i for i, item in enumerate(items) if not -(2**63) <= item < 2**63)
+                raise ValueError(
+                    f"{_MUST}: sub-environment {bad} got {number_text(int(items[bad]))}"
+                ) from None
+        self._refuse_masked(np.array([np.ma.is_masked(item) for item in items], dtype=bool))
+        for index, item in enumerate(items):
+            if isinstance(item, (bool, np.bool_)):  # numpy would make 1 of True
+                raise TypeError(f"{_MUST}: sub-environment {index}'s is a bool, not an integer")
+        if all(is_integer_scalar(item) for item in items):  # 0-d arrays, other byte orders
+            return self._list_actions([int(item) for item in items])
+        try:
+            return np.asarray(items)
         except (TypeError, ValueError) as error:  # a ragged list, say
-            raise ValueError(
-                f"actions must be an array of shape ({self.num_envs},) of integers in 0..3; "
-                f"numpy cannot make an array of this {type(actions).__name__}: "
-                f"{str(error).splitlines()[0]}"
-            ) from None
+            raise self._no_array(items, error) from None
+
+    def _refuse_masked(self, masked: np.ndarray) -> None:
+        if masked.any():
+            raise ValueError(f"{_MUST}: sub-environment {np.flatnonzero(masked)[0]}'s is masked")
+
+    def _no_array(self, actions: Any, error: Exception) -> ValueError:
+        return ValueError(
+            f"actions must be an array of shape ({self.num_envs},) of integers in 0..3; "
+            f"numpy cannot make an array of this {type(actions).__name__}: "
+            f"{str(error).splitlines()[0]}"
+        )
 
     def _checked_reset_mask(self, options: dict[str, Any] | None) -> np.ndarray | None:
         if options is None:
@@ -427,9 +462,15 @@ class WarehouseGridVectorEnv(VectorEnv):
             raise ValueError(
                 f"options['reset_mask'] must have shape ({self.num_envs},), got {mask.shape}"
             )
+        if np.ma.is_masked(mask):  # a masked entry says neither restart nor keep
+            raise ValueError(
+                f"options['reset_mask'] has a masked entry (sub-environment "
+                f"{np.flatnonzero(np.ma.getmaskarray(mask))[0]}): every entry must be a bool"
+            )
+        mask = np.array(mask)  # a plain copy, whatever the subclass
         if not mask.any():
             raise ValueError("options['reset_mask'] must mark at least one sub-environment")
-        return mask.copy()
+        return mask
 
 
 def _checked_count(name: str, value: object, maximum: int | None) -> int:
@@ -437,7 +478,7 @@ def _checked_count(name: str, value: object, maximum: int | None) -> int:
         raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
     if value < 1 or (maximum is not None and value > maximum):
         limit = f"1 to {maximum}" if maximum is not None else "at least 1"
-        raise ValueError(f"{name} must be {limit}, got {value}")
+        raise ValueError(f"{name} must be {limit}, got {number_text(value)}")
     return int(value)
 
 

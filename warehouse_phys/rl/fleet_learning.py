@@ -70,13 +70,8 @@ def new_fleet_q_table(rows: int, cols: int, observation: str = "local") -> np.nd
             f"a shared table reads {' or '.join(TABLE_OBSERVATIONS)} observations, "
             f"got {observation!r}"
         )
-    check_training_memory(rows, cols, 0)
     masks = (NEIGHBOUR_MASKS,) if observation == "neighbours" else ()
-    if observation == "neighbours" and (rows * cols) ** 2 * NEIGHBOUR_MASKS * 40 > 2**31:
-        raise ValueError(
-            f"a neighbours table of a {rows} x {cols} floor would take "
-            f"{(rows * cols) ** 2 * NEIGHBOUR_MASKS * 40 / 2**30:.1f} GiB; use a smaller floor"
-        )
+    check_training_memory(rows, cols, 0, tail=(*masks, FLEET_ACTIONS))
     return np.zeros((rows, cols, rows, cols, *masks, FLEET_ACTIONS), dtype=np.float64)
 
 
@@ -124,7 +119,8 @@ def train_fleet(
         raise ValueError("a shared table needs observation='local' or 'neighbours'")
     config = config or QLearningConfig()
     rows, cols = env.grid.rows, env.grid.cols
-    check_training_memory(rows, cols, config.episodes)
+    masks = (NEIGHBOUR_MASKS,) if env.observation == "neighbours" else ()
+    check_training_memory(rows, cols, config.episodes, tail=(*masks, FLEET_ACTIONS))
     q = new_fleet_q_table(rows, cols, env.observation)
     if max_steps is None:
         max_steps = training_steps(rows, cols)

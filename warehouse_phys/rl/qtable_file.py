@@ -29,7 +29,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from warehouse_phys.files.atomic import atomic_write
-from warehouse_phys.files.npzfile import ArchiveError, NpzReader, to_array
+from warehouse_phys.files.npzfile import ArchiveError, NpzReader
 from warehouse_phys.rules.grid import MAX_SIDE, WarehouseGrid
 from warehouse_phys.rules.layouts import PRESETS, preset_ids, preset_name
 
@@ -116,35 +116,42 @@ def table_bytes(rows: int, cols: int, tail: tuple[int, ...] = (4,)) -> int:
     return rows * cols * rows * cols * math.prod(tail) * 8
 
 
-def check_training_memory(rows: int, cols: int, episodes: int) -> None:
+def check_training_memory(
+    rows: int, cols: int, episodes: int, *, tail: tuple[int, ...] = (4,)
+) -> None:
     """Refuse a run whose table and records would need more than the budget.
 
     Raises:
         ValueError: naming the sizes, if the Q-table of a ``rows`` x ``cols``
-            floor plus the records of ``episodes`` episodes exceed
-            :data:`TRAINING_MEMORY_BUDGET`.
+            floor (a single robot's, or one whose axes after ``(R, C, R, C)`` are
+            ``tail``: see :func:`table_tail`) plus the records of ``episodes``
+            episodes exceed :data:`TRAINING_MEMORY_BUDGET`.
     """
-    table = table_bytes(rows, cols)
+    table = table_bytes(rows, cols, tail)
     records = episodes * RECORD_BYTES_PER_EPISODE
     if table + records > TRAINING_MEMORY_BUDGET:
         records_text = (
             f" and {episodes} episodes need {_size(records)} of records" if episodes else ""
         )
+        digits = 1  # enough to tell the table from the budget: 2.04 GiB, not 2.0 GiB
+        while _size(table, digits) == _size(TRAINING_MEMORY_BUDGET) and digits < 6:
+            digits += 1
         raise ValueError(
-            f"a {rows}x{cols} floor needs a Q-table of {_size(table)}{records_text}, more than "
+            f"a {rows}x{cols} floor needs a Q-table of {_size(table, digits)}{records_text}, "
+            "more than "
             f"the {_size(TRAINING_MEMORY_BUDGET)} a training run may take; "
             "train on a smaller floor or fewer episodes"
         )
 
 
-def _size(n_bytes: int) -> str:
-    """``n_bytes`` for people: bytes, KiB, MiB, GiB or TiB."""
+def _size(n_bytes: int, digits: int = 1) -> str:
+    """``n_bytes`` for people: bytes, KiB, MiB, GiB or TiB, ``digits`` after the point."""
     value = float(n_bytes)
     for unit in ("bytes", "KiB", "MiB", "GiB"):
         if value < 1024:
-            return f"{n_bytes} bytes" if unit == "bytes" else f"{value:.1f} {unit}"
+            return f"{n_bytes} bytes" if unit == "bytes" else f"{value:.{digits}f} {unit}"
         value /= 1024
-    return f"{value:,.1f} TiB"
+    return f"{value:,.{digits}f} TiB"
 
 
 class QTableError(ValueError):
@@ -252,7 +259,7 @@ def load_q_table(
             if magic != b"PK\x03\x04":
                 raise QTableError(f"{path}: not an .npz archive")
             file.seek(0)
-            with NpzReader(file) as archive:
+            with NpzReader(file, members=("q", "metadata")) as archive:
                 for name in ("q", "metadata"):
                     if name not in archive.names:
                         raise QTableError(f"{path}: has no {name!r} array; not a saved Q-table")
@@ -285,10 +292,12 @@ def load_q_table(
 
 def _read_metadata(archive: NpzReader, *, where: str) -> dict[str, Any]:
     """The metadata of an archive, read within :data:`METADATA_MAX_BYTES` and checked."""
-    header, data = archive.read("metadata", max_data_bytes=METADATA_MAX_BYTES)
+    header = archive.header("metadata", max_data_bytes=METADATA_MAX_BYTES)
     if header.dtype.kind != "U" or header.shape != ():
         raise QTableError(f"{where}: metadata is not a JSON string")
-    text = str(to_array(header, data)[()])
+    # Held as ASCII bytes, a quarter of the file's four bytes a character (json.dumps
+    # writes ASCII): with its parse, under the 1 MiB beside the table.
+    text = archive.read_ascii("metadata", max_data_bytes=METADATA_MAX_BYTES)
     try:
         metadata = json.loads(text)
     except (ValueError, RecursionError) as error:  # JSONDecodeError, huge numbers, deep nesting
@@ -307,11 +316,13 @@ def _read_table(
     tail: tuple[int, ...] = (4,),
     kind: str = "",
 ) -> np.ndarray:
-    """The table of an archive for a ``rows`` x ``cols`` grid: real floats, read within
-    the size such a table has, as float64, finite."""
+    """The table of an archive for a ``rows`` x ``cols`` grid: real floats, as float64,
+    finite. Its header is checked before the table is allocated, and the data is read
+    straight into it: loading holds the float64 table and a few chunks, whatever the
+    stored float type."""
     expected = (rows, cols, rows, cols, *tail)
     widest = np.dtype(np.longdouble).itemsize
-    header, data = archive.read("q", max_data_bytes=math.prod(expected) * widest)
+    header = archive.header("q", max_data_bytes=math.prod(expected) * widest)
     if header.dtype.kind != "f":
         raise QTableError(f"{where}: table has dtype {header.dtype}, expected real floats")
     if header.shape != expected:
@@ -320,10 +331,18 @@ def _read_table(
             f"(expected {expected}{', ' + kind if kind else ''})"
         )
     with np.errstate(over="ignore"):  # a long double too large for float64 becomes inf: refused
-        q = to_array(header, data).astype(np.float64)
-    if not np.isfinite(q).all():
+        q = archive.read_array("q", expected, np.float64)
+    if not _all_finite(q):
         raise QTableError(f"{where}: table holds NaN or infinite values")
     return q
+
+
+def _all_finite(q: np.ndarray) -> bool:
+    """Whether ``q`` holds no NaN or infinity, checked a chunk at a time (a whole-table
+    mask would take an eighth of the table more)."""
+    flat = q.ravel(order="K")  # a view of a contiguous table
+    step = 2**16
+    return all(np.isfinite(flat[i : i + step]).all() for i in range(0, flat.size, step))
 
 
 def _check_metadata(metadata: Any, *, where: str) -> None:

@@ -434,15 +434,32 @@ def save_figure(figure: Figure, path: str | os.PathLike[str]) -> Path:
     return atomic_write(path, lambda file: figure.savefig(file, format="png", dpi=100))
 
 
-#: Characters a line of a figure's title holds before it wraps.
+#: Characters a line of a figure's title holds at most before it wraps.
 TITLE_WIDTH = 80
+#: The share of a figure's width a wrapped title may take: the axes it is centred on sit
+#: a little off the figure's centre (the y label is on their left).
+TITLE_SHARE = 0.85
+
+
+def _set_wrapped_title(ax: Axes, title: str) -> None:
+    """Set ``ax``'s title wrapped into lines that fit the figure's width (measured with the
+    figure's renderer; at spaces, and inside a word only where one line cannot hold it),
+    so that no part of it is cut off."""
+    figure = ax.get_figure()
+    renderer = figure.canvas.get_renderer()
+    room = figure.bbox.width * TITLE_SHARE
+    for width in range(TITLE_WIDTH, 9, -4):
+        ax.set_title(textwrap.fill(title, width))
+        if ax.title.get_window_extent(renderer).width <= room:
+            return
 
 
 def throughput_figure(deliveries: np.ndarray, title: str = "", window: int = 32) -> Figure:
     """Deliveries at each step of a lifelong run, and their rolling mean over ``window``
-    steps: the throughput over time [deliveries/step]."""
+    steps: the throughput over time [deliveries/step]. The whole title shows, wrapped to
+    the figure's width, and the legend stands under the axes, off the data."""
     deliveries = np.asarray(deliveries, dtype=np.float64)
-    figure = _figure((7, 3))
+    figure = _figure((7, 3.6))
     ax = figure.add_subplot()
     steps = np.arange(1, len(deliveries) + 1)
     ax.plot(steps, deliveries, color="#bbbbbb", linewidth=0.8, label="deliveries at the step")
@@ -453,8 +470,10 @@ def throughput_figure(deliveries: np.ndarray, title: str = "", window: int = 32)
                label=f"throughput {mean:.2f} deliveries/step")  # fmt: skip
     ax.set_xlabel("step")
     ax.set_ylabel("deliveries")
-    ax.legend(loc="lower right", fontsize="small")
-    ax.set_title(textwrap.fill(title, TITLE_WIDTH) if title else "Throughput over time")
+    # Outside the axes: inside, any corner covers the lines on some floor (a run that
+    # delivers nothing draws them along the bottom, a busy one along the top).
+    figure.legend(loc="outside lower center", ncols=3, fontsize="small", frameon=False)
+    _set_wrapped_title(ax, title or "Throughput over time")
     return figure
 
 

@@ -1,0 +1,101 @@
+"""SIGTERM stops ``train`` and ``simulate`` as Ctrl-C does: one line saying what was written,
+no empty run folder left, and exit status 143 (128 + SIGTERM)."""
+
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from warehouse_phys.apps import cli
+
+#: Seconds a command may take to start and open its run folder on a busy machine.
+START_LIMIT = 120
+
+
+def terminate_once_running(command, cwd):
+    """Start ``python -m <command>`` in ``cwd``, send it SIGTERM once its run folder is
+    there, and return the finished process and its stderr."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", *command], cwd=cwd, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + START_LIMIT
+    try:
+        while not [p for p in (cwd / "runs").glob("*") if p.is_dir()]:
+            assert process.poll() is None, process.communicate()
+            assert time.monotonic() < deadline, "no run folder appeared"
+            time.sleep(0.05)
+        time.sleep(0.5)  # into the run itself
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+    return process, err
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["warehouse_phys.simulate", "--layout", "warehouse", "--robots", "64",
+         "--steps", "10000000", "--no-compare", "--quiet"],
+        ["warehouse_phys.train", "--env", "grid", "--episodes", "10000000", "--quiet"],
+    ],
+    ids=["simulate", "train"],
+)  # fmt: skip
+def test_sigterm_says_what_was_written_removes_the_empty_run_folder_and_exits_143(
+    tmp_path, command
+):
+    process, err = terminate_once_running(command, tmp_path)
+    assert process.returncode == 143
+    prog = f"python -m {command[0]}"
+    assert err == f"{prog}: terminated; nothing was written\n"
+    assert list((tmp_path / "runs").iterdir()) == []  # the run folder is gone
+
+
+def test_sigterm_after_some_files_names_them_and_leaves_no_half_written_file(
+    tmp_path, capsys, monkeypatch
+):
+    from warehouse_phys.apps.simulate import main
+    from warehouse_phys.drawing.animation import Animation
+
+    def terminated(self, path):
+        raise cli.Terminated  # as SIGTERM arriving while the GIF is written
+
+    monkeypatch.setattr(Animation, "save", terminated)
+    out = tmp_path / "run"
+    argv = ["--robots", "2", "--steps", "5", "--frames", "2", "--no-compare", "--quiet",
+            "--out", str(out)]  # fmt: skip
+    assert main(argv) == 143
+    assert capsys.readouterr().err == (
+        "python -m warehouse_phys.simulate: terminated; summary.json, throughput.png, "
+        f"congestion.png are complete in {out}\n"
+    )
+    assert sorted(p.name for p in out.iterdir()) == [
+        "congestion.png", "summary.json", "throughput.png"
+    ]  # fmt: skip
+
+
+def test_the_sigterm_handler_lives_only_while_a_command_runs():
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("only the main thread receives signals; this test sends one to itself")
+    seen = []
+
+    @cli.stops_on_sigterm
+    def command() -> int:
+        seen.append(signal.getsignal(signal.SIGTERM))
+        signal.raise_signal(signal.SIGTERM)
+        return 0  # never reached: the signal raises
+
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(cli.Terminated) as stopped:
+        command()
+    assert len(seen) == 1
+    assert seen[0] is not before
+    assert signal.getsignal(signal.SIGTERM) is before
+    assert cli.interruption(stopped.value) == ("terminated", 143)
+    assert cli.interruption(KeyboardInterrupt()) == ("interrupted", 130)
