@@ -8,10 +8,10 @@ import pytest
 from hypothesis import given, reject, settings
 from hypothesis import strategies as st
 
+from warehouse_phys.rules.delays import DelayConfig
 from warehouse_phys.rules.grid import WarehouseGrid
 from warehouse_phys.rules.instances import (
     PUBLISHED_FIGURES,
-    DelayConfig,
     LorrInstance,
     read_instance,
     write_instance,
@@ -19,6 +19,10 @@ from warehouse_phys.rules.instances import (
 
 #: The competition's instances beside the repository, absent on a fresh clone.
 LORR = Path(__file__).resolve().parents[3] / "shared" / "lorr"
+
+#: A valid delayConfig: LoRR requires all eight fields.
+DELAYS = {"seed": 0, "minDelay": 1, "maxDelay": 4, "eventModel": "poisson", "pDelay": 0.1,
+          "durationModel": "uniform", "gaussMeanRatio": 0.5, "gaussStdRatio": 0.25}  # fmt: skip
 
 
 def needs_lorr() -> None:
@@ -135,12 +139,14 @@ def test_a_json_that_is_no_instance_is_refused_in_one_line(tmp_path, text, messa
         ({"agentSize": 2.0}, "agentSize must be above 0 and at most 1"),
         ({"delayConfig": 3}, "delayConfig must be an object"),
         ({"delayConfig": {"seed": 0}}, "missing 'minDelay'"),
-        ({"delayConfig": {"seed": 0, "minDelay": 5, "maxDelay": 1, "eventModel": "bernoulli",
-                          "pDelay": 0.1, "durationModel": "uniform"}}, "minDelay <= maxDelay"),
-        ({"delayConfig": {"seed": 0, "minDelay": 1, "maxDelay": 4, "eventModel": "storm",
-                          "pDelay": 0.1, "durationModel": "uniform"}}, "unknown model 'storm'"),
-        ({"delayConfig": {"seed": 0, "minDelay": 1, "maxDelay": 4, "eventModel": "poisson",
-                          "pDelay": 1.5, "durationModel": "uniform"}}, "pDelay must be a prob"),
+        ({"delayConfig": {**DELAYS, "minDelay": 5, "maxDelay": 1}},
+         r"max_delay \(delayConfig.maxDelay\) must be at least min_delay \(5\), got 1"),
+        ({"delayConfig": {**DELAYS, "minDelay": 0}}, r"min_delay \(delayConfig.minDelay\)"),
+        ({"delayConfig": {**DELAYS, "eventModel": "storm"}},
+         "event_model .* must be one of bernoulli, poisson; got 'storm'"),
+        ({"delayConfig": {**DELAYS, "pDelay": 1.5}}, r"pDelay\) must be in \[0, 1\], got 1.5"),
+        ({"delayConfig": {k: v for k, v in DELAYS.items() if k != "gaussStdRatio"}},
+         "delayConfig is missing 'gaussStdRatio'"),
         ({"mapFile": "nowhere.map"}, "no such map file"),
         ({"agentFile": "nowhere"}, "no such start file"),
         ({"taskFile": "maps"}, "not a regular file, no task file"),
@@ -265,15 +271,16 @@ def test_unreadable_files_and_odd_values_are_refused_in_one_line(tmp_path, monke
     path = write_files(tmp_path, data={"mapFile": ""})
     with pytest.raises(ValueError, match="mapFile must be a non-empty string, got ''"):
         read_instance(path)
-    delays = {"seed": 0, "minDelay": 1, "maxDelay": 4, "eventModel": "poisson", "pDelay": 0.1,
-              "durationModel": "gaussian"}  # fmt: skip
+    delays = {**DELAYS, "durationModel": "gaussian"}
     path = write_files(tmp_path)
     data = json.loads(path.read_text())
     path.write_text(json.dumps({**data, "delayConfig": delays})[:-1] + ', "x": NaN}')
     read_instance(path)  # an unknown key is ignored, as the competition does
-    text = json.dumps({**data, "delayConfig": {**delays, "gaussStdRatio": 0.1}})
-    path.write_text(text.replace("0.1}", "NaN}"))
-    with pytest.raises(ValueError, match="gauss_std_ratio must be finite"):
+    text = json.dumps({**data, "delayConfig": {**delays, "gaussStdRatio": 0.125}})
+    path.write_text(text.replace("0.125}", "NaN}"))
+    with pytest.raises(
+        ValueError, match=r"gauss_std_ratio \(delayConfig.gaussStdRatio\) must be finite"
+    ):
         read_instance(path)
 
     def refuse(self, *args, **kwargs):
@@ -282,4 +289,23 @@ def test_unreadable_files_and_odd_values_are_refused_in_one_line(tmp_path, monke
     path = write_files(tmp_path)
     monkeypatch.setattr(Path, "open", refuse)
     with pytest.raises(ValueError, match="cannot read the instance file: Permission denied"):
+        read_instance(path)
+
+
+def test_an_instance_on_a_map_wider_than_512_cells_reads(tmp_path):
+    # orz900d, 656 x 1,491, was refused for its width before floors grew to 2,048 cells.
+    wide = ["." * 1491, "." * 1490 + "#", "." * 1491]
+    path = write_files(tmp_path, agents="3\n0\n1491\n4472\n", tasks="2\n1490\n2982,5\n", grid=wide)
+    instance = read_instance(path)
+    assert (instance.grid.rows, instance.grid.cols) == (3, 1491)
+    assert instance.starts.tolist() == [0, 1491, 4472]
+    with pytest.raises(ValueError, match=r"task stops on blocked cells, the first 2981"):
+        read_instance(write_files(tmp_path, tasks="1\n2981\n", grid=wide))
+
+
+def test_an_instance_map_longer_than_its_header_says_is_refused_with_the_headers_size(tmp_path):
+    path = write_files(tmp_path)
+    with (tmp_path / "maps/f.map").open("a") as map_file:
+        map_file.write("." * 10_000)
+    with pytest.raises(ValueError, match=r"f\.map: 10,\d{3} bytes, longer than a map of 3 x 5"):
         read_instance(path)

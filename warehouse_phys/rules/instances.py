@@ -11,7 +11,8 @@ A LoRR instance is a JSON file naming, relative to itself, a MovingAI map
   in order; ``numTasksReveal x teamSize`` tasks are open at a time and a scheduler
   chooses which robot takes which.
 - **2026** (``"version": "2026 LoRR"``): as 2024, with ``agentCounter`` (ticks per
-  action), ``agentSize`` and ``delayConfig`` (random delays), kept here as read.
+  action) and ``agentSize``, kept here as read, and ``delayConfig`` (random delays),
+  checked as LoRR checks it (:class:`warehouse_phys.rules.delays.DelayConfig`).
 
 Start and task files hold a count, then one line per start or task; lines starting
 with ``#`` (the ``# version ...`` line of 2024 and 2026) are comments anywhere, as
@@ -41,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from warehouse_phys.files.atomic import atomic_write_text
+from warehouse_phys.rules.delays import DelayConfig
 from warehouse_phys.rules.grid import WarehouseGrid
 from warehouse_phys.rules.layouts import read_movingai, write_movingai
 
@@ -50,9 +52,6 @@ ASSIGNMENTS = ("roundrobin", "greedy")
 SCHEDULED = "scheduler"
 #: The editions whose ``version`` line this reader knows.
 VERSIONS = ("2024 LoRR", "2026 LoRR")
-#: The delay models of LoRR 2026's ``delayConfig``.
-DELAY_EVENT_MODELS = ("bernoulli", "poisson")
-DELAY_DURATION_MODELS = ("uniform", "gaussian")
 #: Largest instance JSON read [bytes]: a few hundred bytes in every published one.
 MAX_JSON_BYTES = 1 << 20
 #: Largest start or task file read [bytes]: 64 MiB, some 6 million locations.
@@ -89,39 +88,6 @@ PUBLISHED_FIGURES: dict[str, PublishedFigure] = {
     "MR23-I-10": PublishedFigure("errands", 38.9),
     "WAREHOUSE": PublishedFigure("tasks", 30.97, 12.78),
 }
-
-
-@dataclass(frozen=True)
-class DelayConfig:
-    """LoRR 2026's ``delayConfig``: how random delays are drawn (kept as read).
-
-    ``event_model`` ``"bernoulli"`` (each free robot with ``p_delay`` a tick) or
-    ``"poisson"`` (``teamSize x p_delay`` events a tick); durations in
-    ``[min_delay, max_delay]`` ticks, ``"uniform"`` or ``"gaussian"`` with mean and
-    standard deviation ``gauss_mean_ratio`` and ``gauss_std_ratio`` of the range.
-    """
-
-    seed: int
-    min_delay: int
-    max_delay: int
-    event_model: str
-    p_delay: float
-    duration_model: str
-    gauss_mean_ratio: float = 0.5
-    gauss_std_ratio: float = 0.22
-
-    def to_json(self) -> dict[str, Any]:
-        """The ``delayConfig`` object as the competition writes it."""
-        return {
-            "seed": self.seed,
-            "minDelay": self.min_delay,
-            "maxDelay": self.max_delay,
-            "eventModel": self.event_model,
-            "pDelay": self.p_delay,
-            "durationModel": self.duration_model,
-            "gaussMeanRatio": self.gauss_mean_ratio,
-            "gaussStdRatio": self.gauss_std_ratio,
-        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -397,38 +363,14 @@ def _optional(data: dict[str, Any], name: str, key: str, kind: type) -> Any:
 
 
 def _delay_config(data: dict[str, Any], name: str) -> DelayConfig | None:
+    """The instance's ``delayConfig``, checked as LoRR checks it (one home:
+    :class:`~warehouse_phys.rules.delays.DelayConfig`), or ``None``."""
     if "delayConfig" not in data:
         return None
-    raw = data["delayConfig"]
-    if not isinstance(raw, dict):
-        raise ValueError(f"{name}: delayConfig must be an object, got {raw!r}")
-    where = f"{name}: delayConfig"
-    fields = {
-        "seed": ("seed", int), "minDelay": ("min_delay", int), "maxDelay": ("max_delay", int),
-        "eventModel": ("event_model", str), "pDelay": ("p_delay", float),
-        "durationModel": ("duration_model", str),
-    }  # fmt: skip
-    values = {attr: _required(raw, where, key, kind) for key, (attr, kind) in fields.items()}
-    for key, attr in (("gaussMeanRatio", "gauss_mean_ratio"), ("gaussStdRatio", "gauss_std_ratio")):
-        given = _optional(raw, where, key, float)
-        if given is not None:
-            values[attr] = given
-    config = DelayConfig(**values)
-    if not 0 <= config.min_delay <= config.max_delay:
-        raise ValueError(
-            f"{where}: needs 0 <= minDelay <= maxDelay, got {config.min_delay} and "
-            f"{config.max_delay}"
-        )
-    if not 0 <= config.p_delay <= 1:
-        raise ValueError(f"{where}: pDelay must be a probability, got {config.p_delay}")
-    for value, known in ((config.event_model, DELAY_EVENT_MODELS),
-                         (config.duration_model, DELAY_DURATION_MODELS)):  # fmt: skip
-        if value not in known:
-            raise ValueError(f"{where}: unknown model {value!r}; known: {', '.join(known)}")
-    for attr in ("gauss_mean_ratio", "gauss_std_ratio"):
-        if not math.isfinite(getattr(config, attr)):
-            raise ValueError(f"{where}: {attr} must be finite")
-    return config
+    try:
+        return DelayConfig.from_json(data["delayConfig"])
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{name}: {error}") from None
 
 
 def _read_locations(
@@ -543,10 +485,7 @@ def _check_instance(instance: LorrInstance) -> None:
     """Refuse starts and tasks the floor cannot take, with counts."""
     grid = instance.grid
     cells = grid.rows * grid.cols
-    blocked = np.zeros(cells, dtype=bool)
-    if grid.shelves:
-        shelves = np.array(sorted(grid.shelves), dtype=np.int64)
-        blocked[shelves[:, 0] * grid.cols + shelves[:, 1]] = True
+    blocked = grid.shelf_mask.reshape(-1)
     where = instance.name
     offsets, stops, starts = instance.task_offsets, instance.task_stops, instance.starts
     if not len(starts):
