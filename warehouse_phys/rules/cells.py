@@ -79,19 +79,33 @@ class CellSet(Set):
         return frozenset(cells)  # what & | - ^ give: a plain frozenset
 
 
+#: Sequences of at most this many cells keep them as a tuple too [cells]: under 1 MB,
+#: whatever the floor.
+SMALL_SEQUENCE = 4096
+
+
 class CellSequence(Sequence):
     """A read-only sequence of cells over a sorted array of indices ``row * cols + col``:
     indexing gives :class:`Cell` (a slice, a tuple of them), ``len``, ``in`` and
     :meth:`index` by binary search, iteration, and equality with the tuple of the same
     cells. ``numpy.asarray`` of it is the ``(n, 2)`` int64 array of rows and columns;
-    :attr:`indices` the index array itself."""
+    :attr:`indices` the index array itself.
 
-    __slots__ = ("_shape", "indices")
+    A sequence of at most :data:`SMALL_SEQUENCE` cells also keeps them as a tuple and
+    their positions in a dictionary: a single robot draws its package from one at every
+    reset, and a numpy search there cost about a microsecond a reset."""
+
+    __slots__ = ("_positions", "_shape", "_tuple", "indices")
 
     def __init__(self, indices: np.ndarray, rows: int, cols: int) -> None:
         #: The cells as a read-only, ascending int64 array of indices ``row * cols + col``.
         self.indices = indices
         self._shape = (rows, cols)
+        self._tuple: tuple[Cell, ...] | None = None
+        self._positions: dict[Cell, int] | None = None
+        if len(indices) <= SMALL_SEQUENCE:
+            self._tuple = tuple(Cell(*divmod(i, cols)) for i in indices.tolist())
+            self._positions = {cell: position for position, cell in enumerate(self._tuple)}
 
     def __len__(self) -> int:
         return len(self.indices)
@@ -101,6 +115,8 @@ class CellSequence(Sequence):
     @overload
     def __getitem__(self, position: slice) -> tuple[Cell, ...]: ...
     def __getitem__(self, position: int | slice) -> Cell | tuple[Cell, ...]:
+        if self._tuple is not None:
+            return self._tuple[position]
         cols = self._shape[1]
         if isinstance(position, slice):
             return tuple(Cell(*divmod(i, cols)) for i in self.indices[position].tolist())
@@ -123,6 +139,14 @@ class CellSequence(Sequence):
         return position
 
     def _position(self, cell: object) -> int:
+        if (
+            self._positions is not None
+            and type(cell) in (Cell, tuple)
+            and len(cell) == 2  # type: ignore[arg-type]
+            and type(cell[0]) is int  # type: ignore[index]
+            and type(cell[1]) is int  # type: ignore[index]
+        ):  # the hot path: a Cell or a pair of Python ints
+            return self._positions.get(cell, -1)  # type: ignore[call-overload]
         index = _cell_index(cell, *self._shape)
         position = int(np.searchsorted(self.indices, index))
         found = index >= 0 and position < len(self.indices) and self.indices[position] == index
