@@ -165,9 +165,9 @@ class WarehouseFleetEnv(ParallelEnv):
     every robot has terminated or at ``max_cycles`` steps (truncation). An instance
     fleet is lifelong: its robots take the errands of the list.
 
-    ``infos[robot]`` holds ``optimal_steps`` (to its own package, ignoring the
-    other robots and turns), ``refused`` (whether traffic turned its move into a
-    wait), ``deliveries`` (packages delivered, or errands finished, this episode),
+    ``infos[robot]`` holds ``optimal_steps`` (to its own package, ignoring the other
+    robots and turns; an upper bound beyond the distance maps' room), ``refused``
+    (whether traffic made its move a wait), ``deliveries`` (this episode's packages or errands),
     ``tasks`` in an instance fleet (tasks finished) and, in the physics world,
     ``snap_error`` and ``min_gap``: the smallest distance during the step between
     its disc and the disc of a robot that started the step within reach, at most
