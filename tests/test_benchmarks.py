@@ -152,3 +152,45 @@ def test_the_big_maps_benchmark_reports_ours_beside_the_reference(tmp_path):
         assert run["peak_rss_mib"] > 0
     if (ROOT.parent / "shared" / "maps" / "warehouse-large-140-500.map").exists():
         assert [run["map"] for run in runs] == ["random-256-256-10", "warehouse-large-140-500"]
+
+
+@pytest.mark.slow
+def test_the_delays_benchmark_reports_every_figure_with_no_conflict(tmp_path):
+    """A smoke run of every setting (few robots, few ticks): every figure is reported,
+    no run has a conflict, and the executor's runs no deadlock."""
+    if not (ROOT.parent / "shared" / "maps" / "kiva-33-46.map").exists():
+        pytest.skip("benchmark maps not found beside the checkout (../shared/maps)")
+    result = subprocess.run(
+        [sys.executable, "benchmarks/delays.py", "--quick", "--json", str(tmp_path / "d.json")],
+        cwd=ROOT, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    runs = json.loads((tmp_path / "d.json").read_text())["runs"]
+    assert len(runs) == 2 * 2 * 2 * 5  # maps, ticks_per_move, modes, pDelays
+    assert {(r["mode"], r["ticks_per_move"], r["p_delay"]) for r in runs} == {
+        (mode, ticks, p)
+        for mode in ("lock-step", "executor")
+        for ticks in (3, 10)
+        for p in (0, 0.0005, 0.002, 0.005, 0.02)
+    }
+    for run in runs:
+        assert run["vertex_conflicts"] == run["swap_conflicts"] == run["disagreements"] == 0
+        assert run["errands_per_tick"] * run["ticks_per_move"] == pytest.approx(
+            run["errands_per_step"]
+        )
+        for share in ("delayed_share", "own_delay_share", "knock_on_share"):
+            assert 0 <= run[share] <= 1
+        assert run["mean_drift_ticks"] >= 0
+        assert run["cpu_per_move_s"] > 0
+        if run["mode"] == "executor":
+            assert run["deadlocks"] == 0
+            assert run["executor_us_per_tick"] > 0
+    # Without delays, both lock step and the executor run their first plans; with delays
+    # both see the same draws, so the share of robot-ticks delayed is the same.
+    pairs = {(r["map"], r["ticks_per_move"], r["p_delay"]): [] for r in runs}
+    for run in runs:
+        pairs[(run["map"], run["ticks_per_move"], run["p_delay"])].append(run["delayed_share"])
+    assert all(len(set(shares)) == 1 for shares in pairs.values())
+    assert "conflicts in all 40 runs: 0 (0: met)" in result.stdout
+    assert result.stdout.count("executor keeps") == 4
+    assert result.stdout.count("executor beats lock step") == 4
