@@ -9,6 +9,7 @@ import warehouse_phys
 from tests.drawing.test_render import robot_centre
 from warehouse_phys import Action
 from warehouse_phys import play as play_cli
+from warehouse_phys.apps import cli as cli_module
 from warehouse_phys.apps.play import HUD_LINE_PX, HUD_LINES, FleetPlaySession, PlaySession
 from warehouse_phys.envs import fleet
 from warehouse_phys.rules.planning import PIBT
@@ -391,3 +392,24 @@ def test_main_plays_a_fleet_and_refuses_one_too_big_for_the_floor(monkeypatch, c
     assert play_cli.main(["--robots", "9", "--rows", "2", "--cols", "2"]) == 2
     assert "9 robots need 9 start cells" in capsys.readouterr().err
     pygame.display.quit()
+
+
+@pytest.mark.parametrize(("stop", "status"), [(KeyboardInterrupt, 130), (None, 143)])
+def test_ctrl_c_and_sigterm_close_the_window_and_exit_130_and_143(monkeypatch, stop, status):
+    """Ctrl-C (KeyboardInterrupt) or SIGTERM (sent to this process while the session
+    runs) closes the session and exits 130 or 143, as train and simulate do."""
+    import os
+    import signal
+
+    closed = []
+
+    def run(self):
+        if stop is None:
+            os.kill(os.getpid(), signal.SIGTERM)  # raised as cli.Terminated right here
+        raise stop()
+
+    monkeypatch.setattr(PlaySession, "run", run)
+    monkeypatch.setattr(PlaySession, "close", lambda self: closed.append(True))
+    assert play_cli.main(["--env", "grid"]) == status
+    assert closed == [True]
+    assert signal.getsignal(signal.SIGTERM) is not cli_module._terminate  # put back

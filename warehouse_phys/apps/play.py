@@ -44,6 +44,8 @@ from warehouse_phys.apps.cli import (
     add_robots_argument,
     bounded_int,
     floor_from_args,
+    interruption,
+    stops_on_sigterm,
 )
 from warehouse_phys.drawing.render import (
     DEFAULT_CELL_PX,
@@ -332,8 +334,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@stops_on_sigterm
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+    """Run the command line; returns the exit status (130 on Ctrl-C, 143 on SIGTERM: the
+    window closes, nothing is written)."""
     try:
         args = build_parser().parse_args(argv)
         floor = floor_from_args(args)
@@ -377,9 +381,9 @@ def main(argv: list[str] | None = None) -> int:
         raise
     try:
         session.run()
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM as a Terminated
         session.close()
-        return 130
+        return interruption(interrupt)[1]
     return 0
 
 
