@@ -274,3 +274,17 @@ def test_throughput_by_robots_draws_the_measures_and_published_lines():
     (ax,) = figure.axes
     assert list(ax.lines[0].get_xdata()) == [64, 128]
     assert ax.lines[1].get_ydata()[0] == 3.0
+
+
+def test_a_sweep_whose_trials_all_failed_draws_without_a_warning():
+    """Configurations with no finished seed draw no curve: no legend, and no matplotlib
+    warning (which the suite turns into an error) about a legend without artists."""
+    from warehouse_phys.viz.plots import sweep_figure
+
+    figure = sweep_figure({"grid, default": [], "phys, default": []}, title="all failed")
+    (optimal_axes, curve_axes) = figure.axes
+    assert curve_axes.get_legend() is None
+    assert [tick.get_text() for tick in optimal_axes.get_yticklabels()] == [
+        "grid, default",
+        "phys, default",
+    ]

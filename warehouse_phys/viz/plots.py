@@ -361,7 +361,7 @@ def sweep_figure(
     curve_axes.set_ylabel("steps per episode\n(rolling mean)")
     curve_axes.set_yscale("log")
     curve_axes.grid(alpha=0.3)
-    if labels:
+    if curve_axes.get_legend_handles_labels()[0]:  # no curve (every trial failed): no legend
         curve_axes.legend(fontsize=7, loc="upper right")
     if title:
         figure.suptitle(title)
