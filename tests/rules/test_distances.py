@@ -276,3 +276,27 @@ def test_one_distance_is_the_lookups():
         for goal in free[:: max(1, len(free) // 5)].tolist():
             expected = maps.lookup(cells, np.full_like(cells, goal))
             assert [maps.distance(c, goal) for c in cells.tolist()] == expected.tolist()
+
+
+def test_landmarks_stand_in_the_largest_region_and_bound_every_distance_from_below():
+    """An island of two cells beside a large region: every landmark lies in the region
+    (an island's landmark would help no search), and the estimates they give never
+    exceed the true distance."""
+    from warehouse_phys.rules.graph_search import estimate
+
+    layout = ["." * 12 for _ in range(9)] + ["#" * 12, "..#" + "#" * 9]
+    grid = WarehouseGrid.from_layout(layout)
+    maps = DistanceMaps(grid)
+    landmarks = maps._choose_landmarks()
+    largest = maps._region == np.argmax(np.bincount(maps._region))
+    assert len(landmarks) == 16
+    for row in landmarks:
+        source = int(np.flatnonzero(row[:-1] == 0)[0])  # a landmark is 0 from itself
+        assert largest[source]
+    free = _free_cells(grid)[: 12 * 9]
+    goal = int(free[-1])
+    truth = _expected(grid, free, np.full_like(free, goal))
+    for cell, true in zip(free.tolist(), truth.tolist(), strict=True):
+        bound = estimate(int(maps._column[cell]), int(maps._column[goal]), maps._cell_row,
+                         maps._cell_col, landmarks)  # fmt: skip
+        assert bound <= true
