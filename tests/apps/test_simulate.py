@@ -275,6 +275,39 @@ def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_
     assert replay(output, grid).conflicts == []
 
 
+def test_a_2026_instance_says_its_ticks_and_delays_are_not_simulated(tmp_path, capsys):
+    """A 2026 instance's agentCounter and delayConfig are read but not modelled yet: the
+    run says so in its output and in summary.json, rather than passing over them."""
+    import dataclasses
+
+    from tests.envs.test_fleet_instances import small_instance
+    from warehouse_phys.rules.delays import DelayConfig
+    from warehouse_phys.rules.instances import write_instance
+
+    delay = DelayConfig(7, 1, 20, "bernoulli", 0.005, "uniform")
+    plain = small_instance("scheduler", robots=4)
+    instances = {
+        "plain": plain,
+        "timed": dataclasses.replace(plain, version="2026 LoRR", agent_counter=10, delay=delay),
+    }
+    notes = {}
+    for name, instance in instances.items():
+        path = write_instance(instance, tmp_path / f"{name}.json")
+        out = tmp_path / name
+        assert main(["--instance", str(path), "--steps", "5", "--out", str(out), "--quiet",
+                     "--frames", "0", "--no-compare"]) == 0  # fmt: skip
+        printed = capsys.readouterr().out
+        notes[name] = json.loads((out / "summary.json").read_text())["not_simulated"]
+        assert [line for line in printed.splitlines() if line.startswith("not simulated")] == [
+            f"not simulated: {note}" for note in notes[name]
+        ]
+    assert notes["plain"] == []
+    assert notes["timed"] == [
+        "agentCounter (10 ticks an action): here an action takes one step",
+        "delayConfig (pDelay 0.005): here no delays",
+    ]
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [

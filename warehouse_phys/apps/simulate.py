@@ -129,6 +129,8 @@ class Simulation:
     moves: str = "grid"
     #: An instance run: the instance's name and the tasks finished at each step.
     instance: str | None = None
+    #: What of the instance this run does not model (2026's ticks and delays), in words.
+    not_simulated: tuple[str, ...] = ()
     tasks: np.ndarray | None = None
 
     @property
@@ -255,6 +257,7 @@ class Simulation:
             "tasks": int(self.tasks.sum()),
             "tasks_per_step": int(self.tasks.sum()) / steps,
             "published": None if published is None else published.to_json(),
+            "not_simulated": list(self.not_simulated),
             "tasks_per_step_series": self.tasks.tolist(),
         }
 
@@ -401,6 +404,7 @@ def simulate(
         frame_seconds=np.array(frame_seconds),
         moves=env.moves,
         instance=None if env.instance is None else env.instance.name,
+        not_simulated=_not_simulated(env.instance),
         tasks=None if errands is None else np.array(tasks_at, dtype=np.int64),
         **(
             {}
@@ -565,6 +569,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{PROG}: {stopped}; {written_note(folder)}", file=sys.stderr)
         return status
     print(result.summary())
+    for note in result.not_simulated:
+        print(f"not simulated: {note}")
     if len(runs) > 1:
         print("against the baselines, on the same floor, seed and steps:")
         print(comparison_table(runs))
@@ -600,6 +606,20 @@ def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
     except (ValueError, TypeError, OSError) as error:
         raise UsageError(str(error).splitlines()[0]) from None
     return env, policy
+
+
+def _not_simulated(instance: Any) -> tuple[str, ...]:
+    """What of a 2026 instance the fleet does not model yet, in words: its actions'
+    ticks (``agentCounter``) and its random delays (``delayConfig``)."""
+    if instance is None:
+        return ()
+    notes = []
+    if instance.agent_counter not in (None, 1):
+        notes.append(f"agentCounter ({instance.agent_counter} ticks an action): here an "
+                     "action takes one step")  # fmt: skip
+    if instance.delay is not None:
+        notes.append(f"delayConfig (pDelay {instance.delay.p_delay:g}): here no delays")
+    return tuple(notes)
 
 
 def _fleet_layout(name: str) -> str | tuple[str, ...]:
