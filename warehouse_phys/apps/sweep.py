@@ -222,19 +222,32 @@ class TrialFolder(RunFolder):
 
 def _held_by_another(folder: Path) -> bool:
     """Whether a process holds the lock of ``folder`` (a run writing it)."""
+    with _shared_lock(folder) as taken:
+        return taken is False
+
+
+@contextmanager
+def _shared_lock(folder: Path) -> Iterator[bool | None]:
+    """A shared lock on ``folder`` while the block runs, which a run writing the folder
+    (it locks it exclusively) excludes: yields True when taken, False when such a run
+    holds the folder, ``None`` when the folder cannot be opened or locked."""
     try:
         handle = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
     except OSError:
-        return False
+        yield None
+        return
     try:
-        fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
-    except BlockingIOError:
-        return True
-    except OSError:
-        return False
+        try:
+            fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            taken: bool | None = False
+        except OSError:
+            taken = None
+        else:
+            taken = True
+        yield taken
     finally:
-        os.close(handle)  # releases the lock just taken too
-    return False
+        os.close(handle)  # releases the lock too
 
 
 def run_trial(job: dict[str, Any]) -> dict[str, Any]:
@@ -429,25 +442,23 @@ def finished_row(trial: Trial, sweep_dir: Path) -> dict[str, Any] | None:
     config = {"episodes": trial.episodes, "alpha": trial.alpha, "gamma": trial.gamma,
               "seed": trial.seed}  # fmt: skip
     env_id = trial.floor.env_id(trial.env)
-    try:
-        handle = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
-    except OSError:
-        return None
-    try:
-        # Shared: excludes a worker, whose run folder locks the folder exclusively.
-        fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
-        summary = json.loads((folder / SUMMARY_FILE).read_text(encoding="utf-8"))
-        _, metadata = load_q_table(folder / TABLE_FILE)  # a truncated table raises
-        same = (
-            summary["config"] == config
-            and summary["env_id"] == metadata["env_id"] == env_id
-            and {name: metadata[name] for name in config} == config
-        )
-        return _row(trial, "done", _measures(summary)) if same else None
-    except (OSError, ValueError, KeyError, TypeError):  # QTableError is a ValueError
-        return None
-    finally:
-        os.close(handle)
+    with _shared_lock(folder) as taken:  # excludes a worker writing the folder
+        if not taken:
+            return None
+        try:
+            summary = json.loads((folder / SUMMARY_FILE).read_text(encoding="utf-8"))
+            _, metadata = load_q_table(folder / TABLE_FILE)  # a truncated table raises
+        except (OSError, ValueError):  # QTableError is a ValueError
+            return None
+        try:
+            same = (
+                summary["config"] == config
+                and summary["env_id"] == metadata["env_id"] == env_id
+                and {name: metadata[name] for name in config} == config
+            )
+            return _row(trial, "done", _measures(summary)) if same else None
+        except (KeyError, TypeError):
+            return None
 
 
 def _row(trial: Trial, status: str, measures: dict[str, Any], error: str = "") -> dict[str, Any]:
