@@ -161,11 +161,20 @@ def test_the_delays_benchmark_reports_every_figure_with_no_conflict(tmp_path):
     if not (ROOT.parent / "shared" / "maps" / "kiva-33-46.map").exists():
         pytest.skip("benchmark maps not found beside the checkout (../shared/maps)")
     result = subprocess.run(
-        [sys.executable, "benchmarks/delays.py", "--quick", "--json", str(tmp_path / "d.json")],
+        [sys.executable, "benchmarks/delays.py", "--quick", "--physics", "--json",
+         str(tmp_path / "d.json"), "--plot", str(tmp_path / "d.png")],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     runs = json.loads((tmp_path / "d.json").read_text())["runs"]
+    assert (tmp_path / "d.png").read_bytes()[:4] == b"\x89PNG"
+    bodies = [run for run in runs if run["mode"] == "physics"]
+    assert len(bodies) == 2 * 5  # ticks_per_move, pDelays: the physics twin's fleet
+    for run in bodies:  # bodies read on the executor's cells, faster than real time
+        assert run["disagreements"] == 0
+        assert run["real_time"] > 1
+        assert run["min_gap"] < 1
+    runs = [run for run in runs if run["mode"] != "physics"]
     assert len(runs) == 2 * 2 * 2 * 5  # maps, ticks_per_move, modes, pDelays
     assert {(r["mode"], r["ticks_per_move"], r["p_delay"]) for r in runs} == {
         (mode, ticks, p)
@@ -191,6 +200,29 @@ def test_the_delays_benchmark_reports_every_figure_with_no_conflict(tmp_path):
     for run in runs:
         pairs[(run["map"], run["ticks_per_move"], run["p_delay"])].append(run["delayed_share"])
     assert all(len(set(shares)) == 1 for shares in pairs.values())
-    assert "conflicts in all 40 runs: 0 (0: met)" in result.stdout
+    assert "conflicts in all 50 runs: 0 (0: met)" in result.stdout
+    assert result.stdout.count("physics twin, pDelay") == 10
     assert result.stdout.count("executor keeps") == 4
     assert result.stdout.count("executor beats lock step") == 4
+
+
+def test_the_planners_benchmark_reports_guided_beside_plain_pibt(tmp_path):
+    """A smoke run: the 200-robot LoRR example and two Kiva sizes, a few steps each."""
+    shared = ROOT.parent / "shared"
+    if not (shared / "lorr").is_dir() or not (shared / "maps" / "kiva-33-46.map").exists():
+        pytest.skip("LoRR instances or kiva-33-46.map not found beside the checkout")
+    result = subprocess.run(
+        [sys.executable, "benchmarks/planners.py", "--quick", "--json",
+         str(tmp_path / "planners.json")],
+        cwd=ROOT, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    for name in ("pibt", "guided"):
+        lorr_row = rf"200 robots {name} +3 steps: .* errands/step .* 0 refused"
+        assert re.search(lorr_row, result.stdout)
+        assert re.search(rf"kiva-33-46 +64 robots {name} .* deliveries/step .* 0 refused",
+                         result.stdout)  # fmt: skip
+    summary = json.loads((tmp_path / "planners.json").read_text())
+    assert [run["planner"] for run in summary["mr23"]] == ["pibt", "guided"]
+    assert summary["mr23"][1]["searches_per_step"] >= 0
+    assert len(summary["kiva"]) == 4

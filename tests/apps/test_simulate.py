@@ -275,23 +275,23 @@ def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_
     assert replay(output, grid).conflicts == []
 
 
-def test_a_2026_instance_says_its_ticks_and_delays_are_not_simulated(tmp_path, capsys):
-    """A 2026 instance's agentCounter and delayConfig are read but not modelled yet: the
-    run says so in its output and in summary.json, rather than passing over them."""
+def test_what_a_run_does_not_model_is_said_in_its_output_and_summary(tmp_path, capsys):
+    """A 2026 instance runs on its ticks and delays (tests/apps/test_simulate_async.py);
+    what that run does not model (turning robots, LoRR's square robots) is said in the
+    output and in summary.json, rather than passed over, and the lock-step fleet of such an
+    instance, built in Python, says that it leaves out the ticks and delays."""
     import dataclasses
 
     from tests.envs.test_fleet_instances import small_instance
     from warehouse_phys.rules.delays import DelayConfig
     from warehouse_phys.rules.instances import write_instance
+    from warehouse_phys.rules.planning import pibt_policy
 
     delay = DelayConfig(7, 1, 20, "bernoulli", 0.005, "uniform")
     plain = small_instance("scheduler", robots=4)
-    instances = {
-        "plain": plain,
-        "timed": dataclasses.replace(plain, version="2026 LoRR", agent_counter=10, delay=delay),
-    }
+    timed = dataclasses.replace(plain, version="2026 LoRR", agent_counter=10, delay=delay)
     notes = {}
-    for name, instance in instances.items():
+    for name, instance in {"plain": plain, "timed": timed}.items():
         path = write_instance(instance, tmp_path / f"{name}.json")
         out = tmp_path / name
         assert main(["--instance", str(path), "--steps", "5", "--out", str(out), "--quiet",
@@ -302,10 +302,13 @@ def test_a_2026_instance_says_its_ticks_and_delays_are_not_simulated(tmp_path, c
             f"not simulated: {note}" for note in notes[name]
         ]
     assert notes["plain"] == []
-    assert notes["timed"] == [
+    assert [note.split(" (")[0] for note in notes["timed"]] == ["turning robots", "agentSize"]
+    env = fleet.parallel_env(instance=timed, record_errands=True)
+    result, _ = simulate(env, pibt_policy(0), steps=2)
+    assert result.not_simulated == (
         "agentCounter (10 ticks an action): here an action takes one step",
         "delayConfig (pDelay 0.005): here no delays",
-    ]
+    )
 
 
 @pytest.mark.parametrize(

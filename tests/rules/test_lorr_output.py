@@ -89,3 +89,32 @@ def test_a_refused_move_is_an_error_and_the_taken_action_a_wait():
     assert list(record.paths("actual")) == ["W", "R"]
     assert list(record.paths("planned")) == ["F", "R"]
     assert record.busy_steps.tolist() == [1, 0]
+
+
+def test_a_run_on_ticks_writes_its_ticks_and_delays_and_replays_tick_by_tick(tmp_path):
+    """One letter a tick, a move's on the tick it ends: the replay ends where the executor's
+    robots stand, without a conflict; agentMaxCounter and delayIntervals follow teamSize."""
+    from warehouse_phys.apps.simulate_async import simulate_ticks
+    from warehouse_phys.envs import async_fleet
+    from warehouse_phys.rules.delays import DelayConfig
+
+    delays = DelayConfig(3, 1, 6, "bernoulli", 0.05, "uniform")
+    instance = small_instance("scheduler", robots=6)
+    env = async_fleet.parallel_env(instance=instance, ticks_per_move=3, delays=delays,
+                                   record_errands=True)  # fmt: skip
+    record = RunRecord(6, turning=False)
+    result, _ = simulate_ticks(env, steps=STEPS, record=record)
+    intervals = env.execution.delays.intervals_json()
+    assert any(intervals)
+    options = result.lorr_output_options()
+    path = write_output(tmp_path / "out.json", env.instance, record, env.errands, **options)
+    output = json.loads(path.read_text())
+    assert list(output)[2:5] == ["teamSize", "agentMaxCounter", "delayIntervals"]
+    assert output["agentMaxCounter"] == 3
+    assert output["delayIntervals"] == intervals
+    assert len(output["plannerTimes"]) == result.plans == -(-STEPS // 3)  # one a plan, not a tick
+    walked = replay(output, env.grid)
+    assert walked.conflicts == []
+    assert walked.cells[-1].tolist() == env.execution.executor.left.tolist()
+    with pytest.raises(ValueError, match="one list a robot"):
+        output_json(env.instance, record, env.errands, agent_max_counter=3, delay_intervals=[[]])

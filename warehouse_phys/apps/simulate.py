@@ -33,8 +33,20 @@ tasks finished a step, beside the published figure where the instance is one of
 ``lorr-output.json``, the competition's output file
 (:mod:`warehouse_phys.rules.lorr_output`), which its own tools and viewer read.
 ``--moves rotate`` gives the robots the competition's model (turn in place, drive
-forward), on any floor. ``summary.json`` records the CPU time of the reset, of the
-first step and the median and slowest of the others (frames apart), and of the frames.
+forward), on any floor.
+
+**Ticks and delays** (League of Robot Runners 2026): an instance that names
+``agentCounter`` or ``delayConfig``, or ``--ticks-per-move N`` / ``--p-delay P``
+(``--delay-seed S``) on any instance or floor, runs the asynchronous fleet instead: moves
+take ticks, robots are delayed at random, an executor keeps them apart, and ``--steps``
+counts ticks (an instance's 5,000 by default, as LoRR 2026 counts; a floor's 256 moves'
+worth). It reports errands and tasks a tick and a move-duration, the robot-ticks stood
+still by own and knock-on delays and the mean drift; its ``lorr-output.json`` adds
+``agentMaxCounter`` and ``delayIntervals``. ``--moves rotate`` turns LoRR's robots on
+ticks too: :mod:`warehouse_phys.apps.simulate_async` has the details.
+
+``summary.json`` records the CPU time of the reset, of the first step and the median and
+slowest of the others (frames apart), and of the frames.
 SIGTERM stops it as Ctrl-C does (exit status 143).
 
 One command line: its length is its options, its measures and its run folder.
@@ -43,6 +55,7 @@ One command line: its length is its options, its measures and its run folder.
 from __future__ import annotations
 
 import argparse
+import functools
 import gc
 import json
 import sys
@@ -74,7 +87,7 @@ from warehouse_phys.rl.fleet_evaluation import (
     worse_policies,
 )
 from warehouse_phys.rules.headings import MOVE_MODELS
-from warehouse_phys.rules.instances import PUBLISHED_FIGURES
+from warehouse_phys.rules.instances import PUBLISHED_FIGURES, read_instance
 from warehouse_phys.rules.layouts import FLEET_PRESETS, PRESETS
 from warehouse_phys.rules.lorr_output import RunRecord, actual_actions, write_output
 
@@ -129,7 +142,8 @@ class Simulation:
     moves: str = "grid"
     #: An instance run: the instance's name and the tasks finished at each step.
     instance: str | None = None
-    #: What of the instance this run does not model (2026's ticks and delays), in words.
+    #: What of the instance this run does not model, in words (a lock-step run of a 2026
+    #: instance: its ticks and delays; a run on ticks: turning robots, square robots).
     not_simulated: tuple[str, ...] = ()
     tasks: np.ndarray | None = None
 
@@ -201,6 +215,16 @@ class Simulation:
         if published is not None:
             line += f"; published on {self.instance}: {published.describe()}"
         return line
+
+    def lorr_output_options(self) -> dict[str, Any]:
+        """Keywords of :func:`~warehouse_phys.rules.lorr_output.write_output` beyond the
+        record: none in lock step (a run on ticks adds its ticks and delays)."""
+        return {}
+
+    def figure_options(self) -> dict[str, Any]:
+        """Keywords of :func:`~warehouse_phys.viz.plots.throughput_figure`: none in lock
+        step (a run on ticks counts ticks)."""
+        return {}
 
     def summary(self) -> str:
         what = "" if self.tasks is None else f", {self.moves} moves"
@@ -481,7 +505,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--layout", help="a preset, a MovingAI .map file or a layout file")
     parser.add_argument(
         "--instance", type=Path,
-        help="a League of Robot Runners instance (.json): its floor, robots and tasks",
+        help="a League of Robot Runners instance (.json): its floor, robots and tasks (one "
+        "naming agentCounter or delayConfig runs on ticks)",
     )  # fmt: skip
     parser.add_argument(
         "--moves", choices=MOVE_MODELS, default="grid",
@@ -499,13 +524,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--steps", type=bounded_int(1, "a positive number of steps"),
-        help=f"joint steps (default {DEFAULT_STEPS}; an instance: {INSTANCE_STEPS:,})",
+        help=f"joint steps (default {DEFAULT_STEPS}; an instance: {INSTANCE_STEPS:,}); on "
+        f"ticks: ticks (default: an instance's {INSTANCE_STEPS:,}, as LoRR 2026 counts; a "
+        f"floor's {DEFAULT_STEPS} moves' worth)",
     )  # fmt: skip
     parser.add_argument(
         "--on-delivery", choices=DELIVERY_MODES,
         help="what a robot does with a delivered package (default new_package: lifelong)",
     )  # fmt: skip
     parser.add_argument("--physics", action="store_true", help="drive the physics twin")
+    from warehouse_phys.apps.simulate_async import add_tick_arguments
+
+    add_tick_arguments(parser)
     parser.add_argument("--seed", type=bounded_int(0, "a seed of 0 or more"), default=0)
     parser.add_argument(
         "--frames", type=bounded_int(0, "a number of frames of 0 or more"),
@@ -548,8 +578,10 @@ def main(argv: list[str] | None = None) -> int:
             result, frames, record = _run(args, env, policy, label)
             if record is not None:  # before the baselines run the errand list again
                 instance, errands = env.instance, env.errands
+                options = result.lorr_output_options()
                 folder.write(
-                    "lorr-output.json", lambda path: write_output(path, instance, record, errands)
+                    "lorr-output.json",
+                    lambda path: write_output(path, instance, record, errands, **options),
                 )
             runs = {result.policy: result}
             if _compare(args, env):
@@ -578,9 +610,19 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
+def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
+    """The fleet and its policy that the command line asks for: the asynchronous fleet
+    and no policy for a run on ticks (:mod:`warehouse_phys.apps.simulate_async`).
+
+    Raises:
+        UsageError: one line, for arguments that do not go together or that the fleet
+            refuses, or an instance file that cannot be read.
+    """
+    from warehouse_phys.apps.simulate_async import default_ticks, tick_fleet, tick_options
+
     if args.layout is not None and (args.rows is not None or args.cols is not None):
         raise UsageError("give --layout or --rows/--cols, not both")
+    instance = None
     if args.instance is not None:
         given = [flag for flag, value in (("--layout", args.layout), ("--rows", args.rows),
                  ("--cols", args.cols), ("--robots", args.robots),
@@ -588,16 +630,26 @@ def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
         if given:
             raise UsageError(f"an instance gives the floor, the robots and their errands; "
                              f"do not give {', '.join(given)}")  # fmt: skip
-        floor: dict[str, Any] = {"instance": args.instance, "record_errands": True}
+        try:
+            instance = read_instance(args.instance)
+        except (ValueError, TypeError, OSError) as error:
+            raise UsageError(str(error).splitlines()[0]) from None
+        floor: dict[str, Any] = {"instance": instance, "record_errands": True}
     elif args.layout is None:
         floor = {"grid_rows": args.rows or 4, "grid_cols": args.cols or 5}
     else:
         floor = {"layout": _fleet_layout(args.layout)}
-    if args.steps is None:
-        args.steps = DEFAULT_STEPS if args.instance is None else INSTANCE_STEPS
+    ticks = tick_options(args, instance)
+    if args.steps is None and ticks is not None:
+        args.steps = default_ticks(instance, ticks)
+    elif args.steps is None:
+        args.steps = DEFAULT_STEPS if instance is None else INSTANCE_STEPS
     if args.instance is None:
         floor |= {"num_robots": args.robots or 4, "on_delivery": args.on_delivery or "new_package"}
     try:
+        if ticks is not None:
+            return tick_fleet(floor, ticks, ticks=args.steps, physics=args.physics,
+                              seed=args.seed, moves=args.moves), None  # fmt: skip
         env = parallel_env(
             physics=args.physics, max_cycles=args.steps, moves=args.moves,
             observation=_observation_of(args.policy), **floor,
@@ -609,8 +661,10 @@ def _setup(args: argparse.Namespace) -> tuple[WarehouseFleetEnv, FleetPolicy]:
 
 
 def _not_simulated(instance: Any) -> tuple[str, ...]:
-    """What of a 2026 instance the fleet does not model yet, in words: its actions'
-    ticks (``agentCounter``) and its random delays (``delayConfig``)."""
+    """What of a 2026 instance the lock-step fleet does not model, in words: its actions'
+    ticks (``agentCounter``) and its random delays (``delayConfig``). The command runs
+    such an instance on ticks (:mod:`warehouse_phys.apps.simulate_async`); a lock-step
+    fleet built on one in Python gets these notes."""
     if instance is None:
         return ()
     notes = []
@@ -637,10 +691,12 @@ def _fleet_layout(name: str) -> str | tuple[str, ...]:
     return name if rows is None else rows
 
 
-def _compare(args: argparse.Namespace, env: WarehouseFleetEnv) -> bool:
-    """Whether the baselines run too: unless --no-compare, on the grid, when cheap."""
+def _compare(args: argparse.Namespace, env: Any) -> bool:
+    """Whether the baselines run too: unless --no-compare, on the grid, in lock step, when
+    cheap."""
     cheap = env.num_robots * args.steps <= COMPARE_BUDGET
-    return not args.no_compare and not args.physics and cheap
+    lock_step = isinstance(env, WarehouseFleetEnv)
+    return not args.no_compare and not args.physics and lock_step and cheap
 
 
 def _observation_of(policy: str) -> str:
@@ -665,21 +721,29 @@ def _floor_label(args: argparse.Namespace) -> str:
 
 
 def _run(
-    args: argparse.Namespace, env: WarehouseFleetEnv, policy: FleetPolicy, label: str
+    args: argparse.Namespace, env: Any, policy: FleetPolicy | None, label: str
 ) -> tuple[Simulation, list[np.ndarray], RunRecord | None]:
+    """Run ``policy`` on ``env`` (a run on ticks: no policy) as the command line says,
+    with a progress bar; returns the measures, the frames and an instance's record."""
     from tqdm import tqdm
 
-    record = None if env.instance is None else RunRecord(env.num_robots, turning=env.turning)
+    if policy is None:  # on ticks
+        from warehouse_phys.apps.simulate_async import simulate_ticks
+
+        play, turning, unit = functools.partial(simulate_ticks, env), env.turning, "tick"
+    else:
+        play, turning, unit = functools.partial(simulate, env, policy), env.turning, "step"
+    record = None if env.instance is None else RunRecord(env.num_robots, turning=turning)
     # The floor's and the fleet's long-lived objects (tens of thousands of cells on a large
     # map) leave Python's full collections, which otherwise walk them and stall a step.
     gc.freeze()
     # disable=None: tqdm switches itself off when stderr is not a terminal.
-    with tqdm(total=args.steps, desc="simulating", unit="step",
+    with tqdm(total=args.steps, desc="simulating", unit=unit,
               disable=True if args.quiet else None) as bar:  # fmt: skip
         try:
-            result, frames = simulate(
-                env, policy, steps=args.steps, seed=args.seed, frames=args.frames,
-                on_step=bar.update, name=Path(args.policy).name, layout=label, record=record,
+            result, frames = play(
+                steps=args.steps, seed=args.seed, frames=args.frames, on_step=bar.update,
+                name=Path(args.policy).name, layout=label, record=record,
             )  # fmt: skip
         except ValueError as error:  # a table's observation that does not fit, ...
             raise UsageError(str(error).splitlines()[0]) from None
@@ -690,7 +754,7 @@ def _run(
 
 def _write(
     folder: Any,
-    env: WarehouseFleetEnv,
+    env: Any,
     result: Simulation,
     frames: list,
     runs: dict[str, Simulation],
@@ -711,7 +775,9 @@ def _write(
     folder.write("summary.json", lambda path: atomic_write_text(path, text))
     folder.write(
         "throughput.png",
-        lambda path: save_figure(throughput_figure(result.deliveries, result.summary()), path),
+        lambda path: save_figure(
+            throughput_figure(result.deliveries, result.summary(), **result.figure_options()), path
+        ),
     )
     folder.write(
         "congestion.png", lambda path: save_figure(congestion_figure(env.grid, result.waits), path)

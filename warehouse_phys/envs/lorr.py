@@ -4,6 +4,8 @@
 instance: its floor, its robots on their starts (facing east) and its task list handed
 out as the competition does (:class:`~warehouse_phys.envs.fleet.WarehouseFleetEnv` with
 ``instance=``). ``parallel_env`` and ``env`` are PettingZoo's two forms of it.
+``async_fleet(path)`` runs the instance on ticks, with its ``agentCounter`` and
+``delayConfig`` (League of Robot Runners 2026), a tick a step.
 
     from warehouse_phys.envs import lorr
     from warehouse_phys.rules.planning import pibt_policy
@@ -24,6 +26,7 @@ from typing import Any
 from pettingzoo import AECEnv
 
 from warehouse_phys.envs import fleet as _fleet
+from warehouse_phys.envs.async_fleet import AsyncFleetEnv
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
 from warehouse_phys.rules.instances import LorrInstance
 
@@ -41,6 +44,17 @@ def fleet(
             keyword the instance decides (``layout``, ``num_robots``, ...).
     """
     return WarehouseFleetEnv(instance=instance, moves=moves, **kwargs)
+
+
+def async_fleet(
+    instance: LorrInstance | str | os.PathLike[str], *, moves: str = "rotate", **kwargs: Any
+) -> AsyncFleetEnv:
+    """The fleet of ``instance`` on ticks, as LoRR 2026 runs it: a move or turn takes the
+    instance's ``agentCounter`` ticks, its ``delayConfig`` delays the robots, and the
+    executor says GO or STOP to each robot each tick
+    (:class:`~warehouse_phys.envs.async_fleet.AsyncFleetEnv`; ``kwargs`` are its:
+    ``physics``, ``ticks_per_move``, ``delays``, ``max_cycles``, ...)."""
+    return AsyncFleetEnv(instance=instance, moves=moves, **kwargs)
 
 
 def parallel_env(**kwargs: Any) -> WarehouseFleetEnv:

@@ -4,7 +4,9 @@
 - :mod:`~warehouse_phys.physics.engine`: every call into pymunk and chipmunk;
 - :mod:`~warehouse_phys.physics.world`: one robot's world (the single environment's);
 - :mod:`~warehouse_phys.physics.controller`: the check that a setting keeps every promise;
-- :mod:`~warehouse_phys.physics.batched`: many robots in one space (vector envs, fleets).
+- :mod:`~warehouse_phys.physics.batched`: many robots in one space (vector envs, fleets);
+- :mod:`~warehouse_phys.physics.ticking`: bodies driven tick by tick between cells
+  (asynchronous execution), the tick controller check and the clearance formula.
 
 The names of the first four are importable from here, as they were from the
 single module this package replaces.

@@ -12,6 +12,11 @@ bodies that can touch (a fleet).
 Positions go in and out through pymunk's batched I/O (:mod:`pymunk.batch`),
 one call for every body of the space, never through per-body properties.
 
+It also drives asynchronous execution a tick at a time (:meth:`BatchedPhysicsWorld.drive_tick`:
+each body follows its nominal position between cells, a turning body its nominal angle
+too; the geometry, the checks and the clearance formula are
+:mod:`~warehouse_phys.physics.ticking`'s).
+
 Floors are laid out on a square lattice, floor 0 with its top-left corner at
 the origin, exactly where the single world has its floor. Chipmunk solves
 each robot's joint and contacts with only that robot's bodies and the static
@@ -49,6 +54,14 @@ from warehouse_phys.physics import (
     renew_robot,
     space_stepping,
 )
+from warehouse_phys.physics.ticking import (
+    QUARTER,
+    BodyStates,
+    Tick,
+    check_tick,
+    control_motion,
+    control_turn,
+)
 from warehouse_phys.rules.grid import ACTION_DELTAS, WarehouseGrid
 
 #: Empty floor between the walls of two neighbouring floors [cells].
@@ -76,8 +89,6 @@ _SNAP_FIELDS = (
 #: Turning robots: the angle too (the buffers hold x, y, angle, vx, vy, spin a body).
 _POSE = POSITION_FIELD | pymunk.batch.BodyFields.ANGLE
 _TURNING_SNAP_FIELDS = _SNAP_FIELDS | pymunk.batch.BodyFields.ANGLE
-#: A quarter turn [rad].
-QUARTER = math.pi / 2
 #: How the heading (quarter turns clockwise from east) moves a forward move's aim.
 _HEADING_DELTAS = np.array([(0, 1), (1, 0), (0, -1), (-1, 0)], dtype=np.int64)
 _BODY_ID = pymunk.batch.BodyFields.BODY_ID
@@ -107,8 +118,9 @@ class BatchedPhysicsWorld:
             (quarter turns clockwise from east, rows growing southwards). Each body
             then faces its heading and a gear joint turns it
             (:func:`~warehouse_phys.physics.engine.add_robot`); :meth:`move_turning`
-            drives the turns, and the heading is read from the body's angle and
-            snapped like its position. ``None`` (default): robots that do not turn.
+            (lock step) and :meth:`drive_tick` (tick by tick) drive the turns, and the
+            heading is read from the body's angle and snapped like its position.
+            ``None`` (default): robots that do not turn.
 
     Raises:
         ValueError: if a start is off the floor or on a shelf, two robots on
@@ -137,10 +149,7 @@ class BatchedPhysicsWorld:
         self.n_floors = n_floors
         #: ``(N,)`` int64: the floor each robot stands on.
         self.floor_of = floor_of
-        # The cells a robot may stand on, with a border of False all round, flat.
-        self._free_padded = np.zeros((grid.rows + 2) * (grid.cols + 2), dtype=bool)
-        for row, col in grid.reachable:
-            self._free_padded[(row + 1) * (grid.cols + 2) + col + 1] = True
+        self._free_padded = _padded_free_cells(grid)
         self._padded_strides = np.array([1, grid.cols + 2], dtype=np.int64)  # (col, row)
         self._clip_high = np.array([grid.cols, grid.rows], dtype=np.int64)
         self._check_cells(starts, "start")
@@ -151,8 +160,7 @@ class BatchedPhysicsWorld:
         #: the robots do not turn).
         self.headings = self._checked_headings(headings, n_robots)
 
-        size = config.cell_size
-        self._size = size
+        self._size = size = config.cell_size
         self._drive_steps = config.steps_per_move - config.settle_steps
         self._settle_steps = config.settle_steps
 
@@ -176,17 +184,25 @@ class BatchedPhysicsWorld:
         self._snap_io = pymunk.batch.Buffer()
         self._pose_io = pymunk.batch.Buffer()
         self._find_bodies()
-        self._path = np.zeros((0, n_robots, 2))
-        self._turn_path = np.zeros((0, n_robots))
+        self._path, self._turn_path = np.zeros((0, n_robots, 2)), np.zeros((0, n_robots))
         self._move_starts = self.cells
-        #: Each robot's angle before its snap in the last move, off its heading [rad].
+        #: Each robot's angle before its snap in the last move, off its heading [rad]
+        #: (after a tick, :meth:`drive_tick`: each ended robot's, ``(k,)`` in robot order,
+        #: off the heading its action ends facing).
         self.heading_errors = np.zeros(n_robots)
+        #: After the last tick (:meth:`drive_tick`): ``(N,)`` the fraction of each robot's
+        #: move done (0 at rest), ``(N, 2)`` the cell it enters (its own cell at rest).
+        self.fractions, self.entering = np.zeros(n_robots), starts.copy()
+        #: Turning robots, after the last tick: ``(N,)`` the heading each robot's action
+        #: ends facing (its heading at rest), and ``(k,)`` int64 the heading read from
+        #: each ended robot's angle before its snap (the nearest quarter turn).
+        self.turning_to, self.read_headings = self.headings.copy(), np.zeros(0, dtype=np.int64)
 
     def __getstate__(self) -> dict[str, object]:
         # The batched I/O buffers hold C pointers; a copy or an unpickled world makes its own.
         state = self.__dict__.copy()
         for name in ("_reader", "_positions_io", "_snap_io", "_positions", "_snap", "_body_ids",
-                     "_pose_io", "_pose"):  # fmt: skip
+                     "_pose_io", "_pose", "_states"):  # fmt: skip
             state.pop(name)
         return state
 
@@ -222,8 +238,12 @@ class BatchedPhysicsWorld:
 
         Raises:
             RuntimeError: if a body's position is not finite or it left the
-                floor, which a supported configuration never allows.
+                floor, which a supported configuration never allows, or a robot is
+                in mid-move (:meth:`drive_tick`).
         """
+        if self.fractions.any():
+            robot = int(np.flatnonzero(self.fractions)[0])
+            raise RuntimeError(f"robot {robot} is in mid-move: finish its move with drive_tick")
         size, origin = self._size, self._origin
         self._move_starts = self.cells
         aims_xy = aims[:, ::-1]  # (col, row): the order of (x, y)
@@ -241,18 +261,7 @@ class BatchedPhysicsWorld:
             self._write_positions(xy, aim_xy)
         xy = self._advance(self._settle_steps, self._drive_steps)
 
-        local = xy - origin
-        if not np.isfinite(local).all():
-            robot = int(np.flatnonzero(~np.isfinite(local).all(axis=1))[0])
-            raise RuntimeError(f"robot {robot}'s position became {tuple(xy[robot].tolist())}")
-        cells_xy = np.floor(local / size).astype(np.int64)
-        lost = ~self._on_free_cell(cells_xy)
-        if lost.any():
-            robot = int(np.flatnonzero(lost)[0])
-            x, y = local[robot].tolist()
-            raise RuntimeError(
-                f"robot {robot} left the floor or entered a shelf: it is at ({x:.3f}, {y:.3f}) m"
-            )
+        cells_xy = self._cells_of(xy)
         centre_xy = (cells_xy + 0.5) * size + origin
         offset = xy - centre_xy
         snap_error = np.sqrt(np.einsum("ij,ij->i", offset, offset)) / size
@@ -318,6 +327,145 @@ class BatchedPhysicsWorld:
         cells, snap_error = self.move(aims, turns)
         return cells, self.headings.copy(), snap_error
 
+    def drive_tick(
+        self,
+        left: np.ndarray,
+        entered: np.ndarray,
+        before: np.ndarray,
+        after: np.ndarray,
+        ended: np.ndarray,
+        tick_steps: int,
+        *,
+        headings_before: np.ndarray | None = None,
+        headings_after: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Run one tick of asynchronous execution: every body follows its robot's nominal
+        position between cells, and a turning body its nominal angle
+        (:mod:`~warehouse_phys.physics.ticking`).
+
+        Args:
+            left: ``(N, 2)`` integers: the cell each robot is on or leaves, ``(row, col)``
+                (its :attr:`cells`).
+            entered: ``(N, 2)`` integers: the cell each robot's move enters (a free
+                neighbour; :attr:`entering` for a robot in mid-move), its own cell for a
+                robot with no move or a turn; a turning robot's move goes straight ahead.
+            before, after: ``(N,)`` real numbers, ``0 <= before <= after <= 1``: the
+                fraction of each robot's move (or turn) done before and after the tick
+                (:func:`~warehouse_phys.physics.ticking.tick_fractions`); ``before`` is
+                where the last tick left it (:attr:`fractions`); a robot told STOP or
+                delayed has ``after == before``; a robot with no action has both 0.
+            ended: ``(N,)`` bools: the actions that end with this tick, exactly those
+                with ``after == 1``.
+            tick_steps: Physics steps in the tick, a whole number from 1.
+            headings_before, headings_after: turning robots only, and required for them:
+                ``(N,)`` integers 0..3, the heading each robot faces at the start of its
+                current action (its :attr:`headings`) and at its end (the same for a
+                forward move or none, a quarter turn either way for a turn in place;
+                :attr:`turning_to` for a robot in mid-action).
+
+        Each control body runs linearly along its robot's nominal segment over the
+        ``tick_steps`` steps, and a turning robot's control body turns linearly from the
+        nominal angle at ``before`` to the one at ``after`` (``headings_before`` plus the
+        fraction of the signed quarter turn; the gear joint turns the body after it,
+        the pivot joint holds its centre on the cell's centre). Then each ended robot's
+        cell is read from its body and the body is snapped onto the centre of
+        ``entered``, at rest, and a turning body onto the angle of ``headings_after``
+        (the heading read from its angle is :attr:`read_headings`, its distance from
+        that angle :attr:`heading_errors`). :attr:`cells`, :attr:`headings`,
+        :attr:`fractions`, :attr:`entering` and :attr:`turning_to` say where each robot
+        is. Costs one batched read and write of every body at each end of the tick, the
+        steps, and O(N) array operations. With ``record_path``, :attr:`last_paths`,
+        :attr:`last_orientations` and :meth:`closest_approach` cover the tick's steps.
+
+        Returns:
+            The cells the ended robots' bodies were on before the snap (``(k, 2)`` int64
+            ``(row, col)``, in robot order, ``k = ended.sum()``) and their distances from
+            the centres of their ``entered`` cells [cells] (``(k,)`` float64).
+
+        Raises:
+            TypeError, ValueError: one line naming the argument
+                (:func:`~warehouse_phys.physics.ticking.check_tick`).
+            RuntimeError: if a body's position or angle is not finite or it left the
+                floor.
+        """
+        tick = check_tick(self, left, entered, before, after, ended, tick_steps,
+                          headings_before, headings_after)  # fmt: skip
+        entered_xy = self._centres(tick.entered)
+        duration = tick.tick_steps * self.config.dt
+        start, velocity = control_motion(
+            self._centre_xy, entered_xy, tick.before, tick.after, duration
+        )
+        states, control = self._states, self._control_rows
+        states.read(self.space)
+        states.positions[control] = start
+        states.velocities[control] = velocity
+        if tick.turns is not None:
+            angle, spin = control_turn(self.headings, tick.turns, tick.before, tick.after, duration)
+            states.angles[control], states.spins[control] = angle, spin
+        states.write(self.space)
+        self._move_starts = self.cells
+        if self.record_path:
+            self._advance(tick.tick_steps, 0, tick.tick_steps)
+        else:
+            step, handle = space_stepping(self.space)
+            for _ in range(tick.tick_steps):
+                step(handle, self.config.dt)
+        self.fractions = np.where(tick.ended, 0.0, tick.after)
+        self.entering = tick.entered
+        if tick.headings_after is not None:
+            self.turning_to = tick.headings_after
+        return self._snap_ended(tick, entered_xy)
+
+    def _snap_ended(self, tick: Tick, entered_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`drive_tick`'s end: read every body (and check it), snap the ended robots
+        onto the centres ``entered_xy`` [m] of their cells ``tick.entered`` at rest (and
+        turning ones onto their ``tick.headings_after``)."""
+        states, robot_rows, ended = self._states, self._robot_rows, tick.ended
+        states.read(self.space)
+        cells_xy = self._cells_of(states.positions[robot_rows])
+        if self.turning:
+            self._check_angles(states.angles[robot_rows])
+            self.read_headings, self.heading_errors = np.zeros(0, dtype=np.int64), np.zeros(0)
+        if not ended.any():
+            return np.zeros((0, 2), dtype=np.int64), np.zeros(0)
+        centre_xy = entered_xy[ended]
+        offset = states.positions[robot_rows[ended]] - centre_xy
+        snap_error = np.sqrt(np.einsum("ij,ij->i", offset, offset)) / self._size
+        rows = np.concatenate((robot_rows[ended], self._control_rows[ended]))
+        states.positions[rows] = np.concatenate((centre_xy, centre_xy))
+        states.velocities[rows] = 0.0  # at rest: no velocity, no spin
+        states.spins[rows] = 0.0
+        if tick.headings_after is not None:
+            self._snap_tick_headings(ended, tick.headings_after, rows)
+        states.write(self.space)
+        self.cells = self.cells.copy()
+        self.cells[ended] = tick.entered[ended]
+        self._centre_xy = self._centre_xy.copy()
+        self._centre_xy[ended] = centre_xy
+        return cells_xy[ended][:, ::-1], snap_error
+
+    def _snap_tick_headings(
+        self, ended: np.ndarray, turned_to: np.ndarray, rows: np.ndarray
+    ) -> None:
+        """Read each ended turning robot's heading from its body's angle (in the states
+        just read), note how far that angle is from the heading ``turned_to`` its action
+        ends facing, and put the body and its control body (``rows``) on that heading."""
+        angles = self._states.angles[self._robot_rows[ended]]
+        self.read_headings = np.rint(angles / QUARTER).astype(np.int64) % 4
+        snapped = turned_to[ended] * QUARTER
+        off = np.remainder(angles - snapped + math.pi, 2 * math.pi) - math.pi
+        self.heading_errors = np.abs(off)
+        self._states.angles[rows] = np.concatenate((snapped, snapped))
+        self.headings = self.headings.copy()
+        self.headings[ended] = turned_to[ended]
+
+    @staticmethod
+    def _check_angles(angles: np.ndarray) -> None:
+        """Raise a ``RuntimeError`` if a robot's angle [rad] is not finite."""
+        if not np.isfinite(angles).all():
+            robot = int(np.flatnonzero(~np.isfinite(angles))[0])
+            raise RuntimeError(f"robot {robot}'s angle became {angles[robot]!r}")
+
     def closest_gaps(self) -> np.ndarray:
         """Each robot's smallest gap to another's disc during the last move [cells]:
         :meth:`closest_approach` less the robots' diameter (negative: they overlapped)."""
@@ -359,8 +507,8 @@ class BatchedPhysicsWorld:
         centre_xy = self._centres(starts, robots)
         if self.turning:
             turned = self._checked_headings(headings, len(robots))
-            self.headings = self.headings.copy()
-            self.headings[robots] = turned
+            self.headings, self.turning_to = self.headings.copy(), self.turning_to.copy()
+            self.headings[robots] = self.turning_to[robots] = turned
         angles = (
             (self.headings[robots] * QUARTER).tolist() if self.turning else [None] * len(robots)
         )
@@ -373,6 +521,9 @@ class BatchedPhysicsWorld:
             # is no impulse for it to warm-start anyway.)
             clear_time_step(self.space)
         self.cells = cells
+        self.fractions = self.fractions.copy()
+        self.fractions[robots] = 0.0
+        self.entering = cells.copy()
         self._move_starts = self._move_starts.copy()
         self._move_starts[robots] = starts
         self._centre_xy = self._centre_xy.copy()
@@ -396,8 +547,9 @@ class BatchedPhysicsWorld:
 
     @property
     def last_orientations(self) -> np.ndarray:
-        """Every turning robot's angle after each physics step of the last move, before
-        the snap: ``(N, steps_per_move)`` quarter turns (see :meth:`orientations`).
+        """Every turning robot's angle after each physics step of the last move (or tick,
+        of :meth:`drive_tick`), before the snap: ``(N, steps_per_move)`` quarter turns
+        (``(N, tick_steps)`` after a tick; see :meth:`orientations`).
 
         Raises:
             RuntimeError: if the world does not record paths or the robots do not turn.
@@ -408,9 +560,11 @@ class BatchedPhysicsWorld:
 
     @property
     def last_paths(self) -> np.ndarray:
-        """Every robot's position after each physics step of the last move, before the snap.
+        """Every robot's position after each physics step of the last move (or tick, of
+        :meth:`drive_tick`), before the snap.
 
-        A fresh float64 array of shape ``(N, steps_per_move, 2)`` of ``(row, col)``
+        A fresh float64 array of shape ``(N, steps_per_move, 2)`` (``(N, tick_steps, 2)``
+        after a tick) of ``(row, col)``
         in cell units on the robot's floor (cell centres at whole numbers), as
         :attr:`~warehouse_phys.physics.PhysicsWorld.last_path` for each robot;
         ``(N, 0, 2)`` before the first move. A robot restarted since holds its
@@ -465,9 +619,10 @@ class BatchedPhysicsWorld:
         return closest
 
     # ------------------------------------------------------------------ helpers
-    def _advance(self, steps: int, first: int) -> np.ndarray:
-        """Run ``steps`` physics steps (the move's steps ``first``, ``first + 1``, ...);
-        the robots' ``(x, y)`` [m] after the last."""
+    def _advance(self, steps: int, first: int, length: int | None = None) -> np.ndarray:
+        """Run ``steps`` physics steps (the move's steps ``first``, ``first + 1``, ..., of
+        ``length`` steps in all, default ``steps_per_move``); the robots' ``(x, y)`` [m]
+        after the last."""
         step, handle = space_stepping(self.space)
         dt = self.config.dt
         if not self.record_path:
@@ -475,11 +630,12 @@ class BatchedPhysicsWorld:
                 step(handle, dt)
             return self._read_robots()
         if first == 0:
-            self._path = np.empty((self.config.steps_per_move, self.n_robots, 2))
+            length = self.config.steps_per_move if length is None else length
+            self._path = np.empty((length, self.n_robots, 2))
         path, read, space, rows = self._path, self._reader.read, self.space, self._robot_rows
         if self.turning:
             if first == 0:
-                self._turn_path = np.empty((self.config.steps_per_move, self.n_robots))
+                self._turn_path = np.empty((len(path), self.n_robots))
             turn_path = self._turn_path
             for index in range(first, first + steps):
                 step(handle, dt)
@@ -511,10 +667,8 @@ class BatchedPhysicsWorld:
         turn), note how far it was off, and put both the body and its control body on it
         in the snap array."""
         angles = self._reader.read(self.space)[self._robot_rows, 2]
+        self._check_angles(angles)
         quarters = np.rint(angles / QUARTER)
-        if not np.isfinite(angles).all():
-            robot = int(np.flatnonzero(~np.isfinite(angles))[0])
-            raise RuntimeError(f"robot {robot}'s angle became {angles[robot]!r}")
         self.heading_errors = np.abs(angles - quarters * QUARTER)
         self.headings = quarters.astype(np.int64) % 4
         snapped = self.headings * QUARTER
@@ -583,6 +737,7 @@ class BatchedPhysicsWorld:
             self._pose[:] = np.frombuffer(pose_buffer.float_buf(), dtype=np.float64).reshape(-1, 3)
             self._snap[:, 2] = self._pose[:, 2]
         self._pose_io.set_float_buf(self._pose)
+        self._states = BodyStates(len(in_space), angles=self.turning)
 
     def _centres(self, cells: np.ndarray, robots: np.ndarray | None = None) -> np.ndarray:
         """The centres ``(x, y)`` [m] of ``cells`` (``(k, 2)`` row, col) on the floors of
@@ -593,6 +748,32 @@ class BatchedPhysicsWorld:
     def _to_cells(self, xy: np.ndarray) -> np.ndarray:
         """``(..., N, 2)`` positions ``(x, y)`` [m] as ``(row, col)`` in cells on each floor."""
         return ((xy - self._origin) / self._size - 0.5)[..., ::-1]
+
+    def on_free_cells(self, cells: np.ndarray) -> np.ndarray:
+        """``(k,)`` whether each of ``cells`` (``(k, 2)`` integers ``(row, col)``) is a
+        cell a robot may stand on."""
+        return self._on_free_cell(np.asarray(cells)[:, ::-1])
+
+    def _cells_of(self, xy: np.ndarray) -> np.ndarray:
+        """The ``(col, row)`` of the cell each robot's ``(x, y)`` [m] lies in (the centre
+        nearest to it).
+
+        Raises:
+            RuntimeError: if a position is not finite or off the floor or on a shelf.
+        """
+        local = xy - self._origin
+        if not np.isfinite(local).all():
+            robot = int(np.flatnonzero(~np.isfinite(local).all(axis=1))[0])
+            raise RuntimeError(f"robot {robot}'s position became {tuple(xy[robot].tolist())}")
+        cells_xy = np.floor(local / self._size).astype(np.int64)
+        lost = ~self._on_free_cell(cells_xy)
+        if lost.any():
+            robot = int(np.flatnonzero(lost)[0])
+            x, y = local[robot].tolist()
+            raise RuntimeError(
+                f"robot {robot} left the floor or entered a shelf: it is at ({x:.3f}, {y:.3f}) m"
+            )
+        return cells_xy
 
     def _on_free_cell(self, cells_xy: np.ndarray) -> np.ndarray:
         """Whether each ``(col, row)`` is a cell a robot may stand on."""
@@ -638,6 +819,15 @@ def _checked_floors(
     if floor_of.min() < 0 or len(np.unique(floor_of)) != n_floors:
         raise ValueError("floors must be numbered 0, 1, ... with none left out")
     return floor_of, n_floors
+
+
+def _padded_free_cells(grid: WarehouseGrid) -> np.ndarray:
+    """Whether a robot may stand on each cell, flat, with a border of False all round:
+    ``(rows + 2) * (cols + 2)`` bools, cell ``(row, col)`` at ``(row + 1) (cols + 2) + col + 1``."""
+    free = np.zeros((grid.rows + 2) * (grid.cols + 2), dtype=bool)
+    for row, col in grid.reachable:
+        free[(row + 1) * (grid.cols + 2) + col + 1] = True
+    return free
 
 
 def _floor_origins(grid: WarehouseGrid, size: float, n_floors: int) -> np.ndarray:

@@ -21,8 +21,36 @@ for later ones; ``Input_Output_Format.md`` of the competition's start kit):
 
 :func:`replay` walks ``actualPaths`` from ``start`` through the move rules and lists
 every vertex or swap conflict (none in a run of the fleet: the traffic rule grants no
-conflict), so a file can be checked without the competition's tools. Like
-:mod:`warehouse_phys.rules.grid`, this module imports neither gymnasium, pymunk nor
+conflict), so a file can be checked without the competition's tools.
+
+**Runs on ticks** (League of Robot Runners 2026: moves that take ``agentCounter`` ticks,
+random delays; the asynchronous fleet, :mod:`warehouse_phys.rules.execution`): one
+record entry is a tick, not a step. :func:`output_json` then also writes
+``agentMaxCounter`` (the ticks a move takes) and ``delayIntervals`` (per robot its
+``[start_tick, end_tick]`` pairs, the end the first tick free again, as LoRR's
+``DelayGenerator`` writes them; empty lists when no delays are drawn), after
+``teamSize``. A path holds one letter a tick: a move's letter on the tick the move ends
+(the robot is then at rest on the cell it entered), ``W`` on every other tick, so
+:func:`replay` walks it cell by cell, and finds no conflict (a robot ends its move into a
+cell only as, or after, the robot before it leaves it). What differs from LoRR 2026's
+own output:
+
+- its paths are compressed segments ``[(t,row,col,ori,counter):(A d, ...)]``, an action
+  a run of ticks (``FW10``: forward commanded for 10 ticks) with the robot's state at each
+  segment's start (``outputSegmentSize`` ticks a segment); here the plain letters, a tick
+  each, and no ``outputSegmentSize``;
+- its robots turn (``"MAPF_T"``, a turn takes ``agentCounter`` ticks as a forward move
+  does); here four-direction robots written as ``"MAPF"``;
+- ``plannerPaths`` is here ``actualPaths`` again (the executor runs the planner's moves,
+  late under delays but never others), and ``plannerTimes`` holds one entry a plan (the
+  CPU time of the tick at which the planner ran, that tick's execution included);
+- ``sumOfCost`` and ``makespan`` count ticks as this module counts steps (LoRR 2026 writes
+  no ``sumOfCost`` and the run's length as ``makespan``), and there is no ``version``
+  field;
+- robots are points kept at least the executor's ``min_gap`` apart, not LoRR's squares
+  of side ``agentSize`` checked for overlap.
+
+Like :mod:`warehouse_phys.rules.grid`, this module imports neither gymnasium, pymunk nor
 pygame.
 """
 
@@ -53,10 +81,10 @@ TURNING_MODEL, GRID_MODEL = "MAPF_T", "MAPF"
 class RunRecord:
     """What every robot of a fleet did at each step, for the competition's output file.
 
-    ``add(planned, actual, had_errand, seconds)`` once per step: ``(N,)`` the actions
-    the policy asked for and those that happened (the move model's numbering), whether
-    each robot had an errand at the step's start, and the planner's time [s]. One byte
-    per robot and action.
+    ``add(planned, actual, had_errand, seconds)`` once per step (or tick): ``(N,)`` the
+    actions the policy asked for and those that happened (the move model's numbering),
+    whether each robot had an errand at the step's start, and the planner's time [s]
+    (``None`` at a tick at which the planner did not run). One byte per robot and action.
     """
 
     def __init__(self, num_robots: int, *, turning: bool) -> None:
@@ -75,15 +103,20 @@ class RunRecord:
         return len(self._planned)
 
     def add(
-        self, planned: np.ndarray, actual: np.ndarray, had_errand: np.ndarray, seconds: float
+        self,
+        planned: np.ndarray,
+        actual: np.ndarray,
+        had_errand: np.ndarray,
+        seconds: float | None,
     ) -> None:
-        """One step's actions (see the class)."""
+        """One step's actions (see the class); ``seconds`` ``None`` adds no planner time."""
         planned = np.asarray(planned, dtype=np.int8)
         actual = np.asarray(actual, dtype=np.int8)
         self._planned.append(planned)
         self._actual.append(actual)
         self.busy_steps += np.asarray(had_errand, dtype=bool)
-        self.planner_seconds.append(float(seconds))
+        if seconds is not None:
+            self.planner_seconds.append(float(seconds))
         for robot in np.flatnonzero(planned != actual).tolist():
             self.errors.append((self.steps, robot, int(planned[robot]), "move refused"))
 
@@ -121,16 +154,52 @@ def actual_actions(
 
 
 def output_json(
-    instance: LorrInstance, record: RunRecord, errands: ErrandList
+    instance: LorrInstance,
+    record: RunRecord,
+    errands: ErrandList,
+    *,
+    agent_max_counter: int | None = None,
+    delay_intervals: list[list[list[int]]] | None = None,
 ) -> Iterator[tuple[str, Any]]:
     """The output file's fields, in the competition's order, as ``(key, value)`` pairs
     (the paths as generators of strings, so that a 10,000-robot run is written
     without holding its JSON in memory). ``errands`` must have been kept with
-    ``record=True``."""
+    ``record=True``.
+
+    A run on ticks gives ``agent_max_counter`` (the ticks a move takes): then
+    ``agentMaxCounter`` and ``delayIntervals`` (``delay_intervals``, LoRR's per-robot
+    ``[start, end]`` lists as :meth:`~warehouse_phys.rules.delays.DelayGenerator.intervals_json`
+    gives them; an empty list a robot for ``None``) follow ``teamSize``.
+
+    Raises:
+        ValueError: for ``delay_intervals`` without ``agent_max_counter``, or not one list
+            a robot.
+    """
+    n = instance.team_size
+    if delay_intervals is not None and (agent_max_counter is None or len(delay_intervals) != n):
+        raise ValueError(
+            f"delay_intervals needs agent_max_counter and one list a robot ({n}), got "
+            f"{len(delay_intervals)} lists, agent_max_counter {agent_max_counter}"
+        )
+    return _output_fields(instance, record, errands, agent_max_counter, delay_intervals)
+
+
+def _output_fields(
+    instance: LorrInstance,
+    record: RunRecord,
+    errands: ErrandList,
+    agent_max_counter: int | None,
+    delay_intervals: list[list[list[int]]] | None,
+) -> Iterator[tuple[str, Any]]:
+    """The fields of :func:`output_json`, its arguments checked."""
+    n = instance.team_size
     cols = instance.grid.cols
     yield "actionModel", TURNING_MODEL if record.turning else GRID_MODEL
     yield "AllValid", "Yes" if not record.errors else "No"
-    yield "teamSize", instance.team_size
+    yield "teamSize", n
+    if agent_max_counter is not None:
+        yield "agentMaxCounter", int(agent_max_counter)
+        yield "delayIntervals", delay_intervals or [[] for _ in range(n)]
     yield "start", [[int(s // cols), int(s % cols), HEADING_LETTERS[0]]
                     for s in instance.starts.tolist()]  # fmt: skip
     yield "numTaskFinished", errands.tasks_done
@@ -171,14 +240,23 @@ def output_json(
 
 
 def write_output(
-    path: str | os.PathLike[str], instance: LorrInstance, record: RunRecord, errands: ErrandList
+    path: str | os.PathLike[str],
+    instance: LorrInstance,
+    record: RunRecord,
+    errands: ErrandList,
+    *,
+    agent_max_counter: int | None = None,
+    delay_intervals: list[list[list[int]]] | None = None,
 ) -> Path:
-    """Write the competition's output file (see :func:`output_json`) atomically,
-    streaming the paths; returns the path."""
+    """Write the competition's output file (see :func:`output_json`, which also takes
+    a run on ticks' ``agent_max_counter`` and ``delay_intervals``) atomically, streaming
+    the paths; returns the path."""
+    fields = output_json(instance, record, errands, agent_max_counter=agent_max_counter,
+                         delay_intervals=delay_intervals)  # fmt: skip
 
     def write(file: Any) -> None:
         file.write(b"{\n")
-        for index, (key, value) in enumerate(output_json(instance, record, errands)):
+        for index, (key, value) in enumerate(fields):
             file.write(b",\n" if index else b"")
             file.write(f"    {json.dumps(key)}: ".encode())
             if isinstance(value, Iterator):

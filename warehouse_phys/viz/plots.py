@@ -454,21 +454,25 @@ def _set_wrapped_title(ax: Axes, title: str) -> None:
             return
 
 
-def throughput_figure(deliveries: np.ndarray, title: str = "", window: int = 32) -> Figure:
-    """Deliveries at each step of a lifelong run, and their rolling mean over ``window``
-    steps: the throughput over time [deliveries/step]. The whole title shows, wrapped to
-    the figure's width, and the legend stands under the axes, off the data."""
+def throughput_figure(
+    deliveries: np.ndarray, title: str = "", window: int = 32, unit: str = "step"
+) -> Figure:
+    """Deliveries at each step (``unit``: each tick of a run on ticks) of a lifelong run,
+    and their rolling mean over ``window`` of them: the throughput over time
+    [deliveries/step]. The whole title shows, wrapped to the figure's width, and the
+    legend stands under the axes, off the data."""
     deliveries = np.asarray(deliveries, dtype=np.float64)
     figure = _figure((7, 3.6))
     ax = figure.add_subplot()
     steps = np.arange(1, len(deliveries) + 1)
-    ax.plot(steps, deliveries, color="#bbbbbb", linewidth=0.8, label="deliveries at the step")
+    ax.plot(steps, deliveries, color="#bbbbbb", linewidth=0.8, label=f"deliveries at the {unit}")
     ax.plot(steps, rolling_mean(deliveries, window), color="#0072B2", linewidth=2,
-            label=f"mean of the last {window} steps")  # fmt: skip
+            label=f"mean of the last {window} {unit}s")  # fmt: skip
     mean = deliveries.mean() if len(deliveries) else 0.0
+    digits = 2 if unit == "step" else 3  # a tick delivers a tenth of a step's
     ax.axhline(mean, color="#D55E00", linestyle="--", linewidth=1,
-               label=f"throughput {mean:.2f} deliveries/step")  # fmt: skip
-    ax.set_xlabel("step")
+               label=f"throughput {mean:.{digits}f} deliveries/{unit}")  # fmt: skip
+    ax.set_xlabel(unit)
     ax.set_ylabel("deliveries")
     # Outside the axes: inside, any corner covers the lines on some floor (a run that
     # delivers nothing draws them along the bottom, a busy one along the top).

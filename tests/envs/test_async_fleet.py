@@ -1,0 +1,156 @@
+"""The asynchronous fleet: PettingZoo's suites, the physics twin against the grid twin
+tick by tick (no contact, the same cells), holds as safe as delays, LoRR 2026 instances,
+clear refusals."""
+
+import functools
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", DeprecationWarning)
+    from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
+
+from warehouse_phys.envs import async_fleet, lorr
+from warehouse_phys.physics import COLLISION_SLOP, HEADING_SNAP_BOUND
+from warehouse_phys.physics.ticking import TRACKING_MARGIN, check_tick_controller
+from warehouse_phys.rules.async_grid import AsyncGrid
+from warehouse_phys.rules.delays import DelayConfig
+
+LORR = Path(__file__).resolve().parents[3] / "shared" / "lorr"
+FLOOR = ["S.......", ".##.##..", "........", ".##.##..", "........"]
+DELAYS = DelayConfig(seed=1, min_delay=1, max_delay=8, event_model="bernoulli", p_delay=0.03,
+                     duration_model="uniform")  # fmt: skip
+
+
+def quietly(test, *args, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        test(*args, **kwargs)
+
+
+@pytest.mark.parametrize(("physics", "moves"), [(False, "grid"), (True, "grid"),
+                                               (False, "rotate"), (True, "rotate")])  # fmt: skip
+def test_pettingzoos_parallel_and_aec_suites_pass(physics, moves):
+    kwargs = {"layout": FLOOR, "num_robots": 4, "ticks_per_move": 3, "delays": DELAYS,
+              "max_cycles": 40, "physics": physics, "moves": moves}  # fmt: skip
+    quietly(parallel_api_test, async_fleet.parallel_env(**kwargs), num_cycles=60)
+    quietly(parallel_seed_test, functools.partial(async_fleet.parallel_env, **kwargs), 30)
+    quietly(api_test, async_fleet.env(**kwargs), num_cycles=30)
+
+
+def run_both(seed, ticks, **kwargs):
+    """The grid and physics twins under the same random GO/STOP actions, tick by tick:
+    the physics twin's bodies stay within the controller's tracking error of the grid
+    twin's centres, end their moves on its cells, and never touch."""
+    body = async_fleet.parallel_env(physics=True, track_gaps=True, **kwargs)
+    grid = async_fleet.parallel_env(min_gap=body.min_gap, **kwargs)  # the bodies' gap
+    grid.reset(seed=seed)
+    body.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    motion = check_tick_controller(body.physics, int(body.execution.executor.ticks_needed.min()),
+                                   body.tick_steps, turning=body.turning)  # fmt: skip
+    diameter = body.physics.robot_diameter
+    twin = AsyncGrid(body.grid, body.execution.executor.left, body.execution.executor.ticks_needed)
+    errands = 0
+    for _ in range(ticks):
+        actions = {agent: int(rng.random() < 0.9) for agent in grid.agents}
+        _, rewards, _, _, _ = grid.step(actions)
+        _, body_rewards, _, _, infos = body.step(actions)
+        report = body.execution.executor
+        twin.left[:], twin.entered[:], twin.done[:] = report.left, report.entered, report.done
+        assert (grid.execution.executor.left == report.left).all()
+        assert (grid.execution.executor.done == report.done).all()
+        assert rewards == body_rewards
+        errands += sum(rewards.values())
+        off = np.linalg.norm(body.world.positions() - twin.centres(), axis=1)
+        assert off.max() <= motion.tracking_error + TRACKING_MARGIN
+        assert body.closest_approach() >= diameter - COLLISION_SLOP
+        assert max(info["snap_error"] for info in infos.values()) < 0.02
+        if body.turning:  # the bodies face the grid twin's headings, turns end on them
+            assert (body.world.headings == report.headings).all()
+            assert np.all(body.world.heading_errors < HEADING_SNAP_BOUND)
+    return errands
+
+
+SPEEDS = [1, 2, 1.5, 1] * 3 + [1, 1]
+
+
+@pytest.mark.parametrize(("seed", "ticks_per_move", "speeds", "moves"),
+                         [(0, 3, None, "grid"), (1, 10, None, "grid"), (2, 4, SPEEDS, "grid"),
+                          (3, 3, None, "rotate"), (4, 4, SPEEDS, "rotate")])  # fmt: skip
+def test_the_physics_twin_follows_the_grid_twin_and_bodies_never_touch(
+    seed, ticks_per_move, speeds, moves
+):
+    errands = run_both(seed, 150, layout=FLOOR, num_robots=14, ticks_per_move=ticks_per_move,
+                       speeds=speeds, delays=DELAYS, moves=moves)  # fmt: skip
+    assert errands > 0
+
+
+def test_holding_every_robot_stops_the_fleet_and_counts_as_held():
+    env = async_fleet.parallel_env(layout=FLOOR, num_robots=6, ticks_per_move=2)
+    env.reset(seed=0)
+    cells = env.execution.executor.left.copy()
+    for _ in range(5):
+        _, rewards, _, _, infos = env.step(dict.fromkeys(env.agents, async_fleet.STOP))
+        assert not any(rewards.values())
+    assert (env.execution.executor.left == cells).all()
+    assert all(info["held"] for info in infos.values())
+    assert env.execution.measures.held > 0
+    assert env.execution.measures.knock_on == 0
+
+
+def test_a_lifelong_fleet_delivers_and_the_same_seed_gives_the_same_run():
+    def run():
+        env = async_fleet.parallel_env(layout=FLOOR, num_robots=8, ticks_per_move=3,
+                                       delays=DELAYS, max_cycles=200)  # fmt: skip
+        observations, _ = env.reset(seed=5)
+        trace = []
+        while env.agents:
+            observations, _, _, truncations, _ = env.step(dict.fromkeys(env.agents, 1))
+            trace.append(np.stack(list(observations.values())))
+        return env.errands_done, np.stack(trace), truncations
+
+    first, second = run(), run()
+    assert first[0] > 5
+    assert first[0] == second[0]
+    assert (first[1] == second[1]).all()
+    assert all(first[2].values())
+
+
+@pytest.mark.skipif(not (LORR / "2026-examples-maze").is_dir(),
+                    reason=f"the LoRR instances are not in {LORR}")  # fmt: skip
+@pytest.mark.parametrize("moves", ["grid", "rotate"])
+def test_a_2026_instance_runs_with_its_ticks_and_delays(moves):
+    env = lorr.async_fleet(
+        LORR / "2026-examples-maze" / "maze-example_40.json", moves=moves, max_cycles=400
+    )
+    observations, _ = env.reset(seed=0)
+    assert len(observations["robot_0"]) == (12 if moves == "rotate" else 10)
+    instance = env.instance
+    assert (env.execution.executor.ticks_needed == instance.agent_counter).all()
+    assert env.delays == instance.delay
+    while env.agents:
+        env.step(dict.fromkeys(env.agents, 1))
+    assert env.errands.errands_done == env.errands_done > 0
+    assert env.execution.measures.delayed > 0
+
+
+def test_bad_arguments_and_actions_are_refused_in_one_line():
+    with pytest.raises(TypeError, match="need physics=True"):
+        async_fleet.parallel_env(layout=FLOOR, robot_radius=0.2)
+    with pytest.raises(ValueError, match=r"less than the .* these bodies need"):
+        async_fleet.parallel_env(layout=FLOOR, physics=True, min_gap=0.3)
+    with pytest.raises(ValueError, match="tick_steps is for the physics twin"):
+        async_fleet.parallel_env(layout=FLOOR, tick_steps=3)
+    with pytest.raises(TypeError, match="delays must be"):
+        async_fleet.parallel_env(layout=FLOOR, delays="often")
+    env = async_fleet.parallel_env(layout=FLOOR, num_robots=2)
+    env.reset(seed=0)
+    for actions, error in [({"robot_0": 1}, ValueError), ({"robot_0": 2, "robot_1": 1},
+                           ValueError), ({"robot_0": 1.0, "robot_1": 1}, TypeError)]:  # fmt: skip
+        with pytest.raises(error, match="robot_"):
+            env.step(actions)
+    assert env.ticks == 0  # nothing was run
