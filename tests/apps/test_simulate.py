@@ -51,10 +51,22 @@ def test_the_command_writes_its_run_folder(tmp_path, capsys):
     assert "--out" in capsys.readouterr().err
 
 
+def test_the_guided_planner_is_chosen_by_name(tmp_path, capsys):
+    out = tmp_path / "guided"
+    assert main(["--layout", "warehouse", "--robots", "12", "--steps", "40", "--policy",
+                 "guided", "--frames", "0", "--no-compare", "--out", str(out),
+                 "--quiet"]) == 0  # fmt: skip
+    assert capsys.readouterr().out.startswith("guided, 12 robots")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["policy"] == "guided"
+    assert summary["refused"] == 0
+    assert summary["deliveries"] > 0
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--policy", "magic"], "unknown policy 'magic'"),
+        (["--policy", "magic"], "unknown policy 'magic': choose pibt, guided"),
         (["--robots", "300"], "300 robots need"),
         (["--layout", "nowhere"], "--layout 'nowhere' is neither a preset"),
         (["--on-delivery", "vanish"], "invalid choice: 'vanish'"),

@@ -92,7 +92,7 @@ from warehouse_phys.rules.layouts import FLEET_PRESETS, PRESETS
 from warehouse_phys.rules.lorr_output import RunRecord, actual_actions, write_output
 
 PROG = "python -m warehouse_phys.simulate"
-POLICIES = ("pibt", "shortest", "random")
+POLICIES = ("pibt", "guided", "shortest", "random")
 RUN_FILES = ("summary.json", "throughput.png", "congestion.png", "fleet.gif", "lorr-output.json")
 DEFAULT_RUNS_DIR = Path("runs")
 #: Frames of the GIF by default: enough to see the traffic, few enough to stay small.
@@ -308,6 +308,10 @@ def make_policy(name: str, env: WarehouseFleetEnv, *, seed: int) -> FleetPolicy:
         from warehouse_phys.rules.planning import pibt_policy
 
         return pibt_policy(seed=seed)
+    if name == "guided":
+        from warehouse_phys.rl.fleet_planners import guided_pibt_policy
+
+        return guided_pibt_policy(seed=seed)
     if name == "shortest":
         return shortest_path_policy
     if name == "random":
@@ -520,7 +524,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="robots in the fleet (default 4; an instance: its teamSize)",
     )
     parser.add_argument(
-        "--policy", default="pibt", help="pibt (default), shortest, random, or a table (.npz)"
+        "--policy",
+        default="pibt",
+        help="pibt (default), guided (PIBT following traffic-priced guide paths), shortest, "
+        "random, or a table (.npz)",
     )
     parser.add_argument(
         "--steps", type=bounded_int(1, "a positive number of steps"),

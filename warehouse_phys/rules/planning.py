@@ -175,6 +175,7 @@ class PIBT:
         *,
         requests: dict[int, int] | None = None,
         headings: np.ndarray | None = None,
+        candidate_values: np.ndarray | None = None,
     ) -> np.ndarray:
         """The next joint action: ``(N,)`` int64 in 0..4, from each robot's ``(row, col)``
         ``cells`` and ``goals`` (``(N, 2)``); ``movable`` and ``present`` default to all.
@@ -185,6 +186,13 @@ class PIBT:
         the keyboard): they plan first, with that move as their only candidate, so the
         robots in their way move aside; a request that cannot be met leaves the robot
         where it is.
+
+        ``candidate_values`` (``(N, 5)`` float, optional) ranks a robot's candidates by
+        other values than its distances to its goal, lower first (a guide: see
+        :mod:`warehouse_phys.rules.guidance`): the cells of its four moves in action
+        order, then its own cell; ``NaN`` where the planner's own distance is wanted.
+        Everything else is as without it (ties, pushes, the swap operation's distances),
+        so every plan is granted just the same.
 
         Raises:
             ValueError: if the number of robots changes between calls (start a new
@@ -210,7 +218,9 @@ class PIBT:
         moving = np.flatnonzero(movable)
         if self.turning:
             self._commitments(here, goal, movable)
-        ranked_of = self._ranked_candidates(here, goal, moving, present, distances, headings)
+        ranked_of = self._ranked_candidates(
+            here, goal, moving, present, distances, headings, candidate_values
+        )
 
         here_list = here.tolist()
         plan = [NIL] * n
@@ -270,11 +280,13 @@ class PIBT:
         present: np.ndarray,
         distances: DistanceMaps,
         headings: np.ndarray | None = None,
+        values: np.ndarray | None = None,
     ) -> list[list[int] | None]:
         """Each moving robot's candidate cells, best first (``None`` for the others):
         nearest to its goal (turning robots: by :meth:`_count_turns`), then a cell nobody
         stands on now, then at random; cells it cannot reach its goal from are
-        :data:`NIL`."""
+        :data:`NIL`. ``values`` (``(N, 5)``, ``NaN``: the distance) replace the distances
+        where given."""
         n, cols = len(here), self.grid.cols
         # Candidates of every moving robot, nearest to the goal first, in one look-up.
         candidates = self._table[here[moving]]  # (m, 5): the four moves, then staying
@@ -287,6 +299,9 @@ class PIBT:
             for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
                 if rows.any():
                     distance[rows] = maps.lookup(candidates[rows], targets[rows])
+        if values is not None:  # a guide's values where it gives them
+            given = np.asarray(values, dtype=np.float64)[moving]
+            distance = np.where(np.isnan(given), distance, given)
         blocked = candidates[:, :WAIT] == here[moving, None]  # a move into a wall or shelf
         distance[:, :WAIT][blocked] = np.inf  # UNREACHABLE cells stay last but one
         if headings is not None:

@@ -1,0 +1,214 @@
+"""Guided PIBT against plain PIBT: the LoRR 10,000-robot instance and the Kiva floor.
+
+Two measurements, one core (numpy's threads held to one), CPU time (``time.process_time``):
+
+- **MR23-I-10** (League of Robot Runners 2023, 10,000 robots on warehouse_large, four
+  directions; record 38.9 errands a step with turning robots, plain PIBT about 22): each
+  planner in a fresh process, as ``benchmarks/lorr.py`` runs PIBT: errands finished a
+  step (and over the last ``--window`` steps), refused moves, the first step (the first
+  errands' distance maps and, guided, every robot's first guide path), the median and
+  slowest later step, guide-path searches a step, robots the time limit left unguided,
+  peak resident memory.
+- **kiva-33-46** (POGEMA's lifelong setting: 256 steps, seeds 0-4) at 32 to 256 robots:
+  deliveries a step, the mean over the seeds, the planners interleaved seed by seed on
+  the same fleet; the median CPU time of a plan. Published at 128 robots: RHCR 3.49; at
+  192: Follower 3.94 (POGEMA).
+
+Planners are named as :data:`warehouse_phys.rl.fleet_planners.PLANNERS`: ``pibt``,
+``guided`` (following congestion-priced guide paths), and the ablations
+``guided-paths`` (following shortest guide paths) and ``guided-costs`` (PIBT's
+distances with the guide paths' traffic as a tie-break).
+
+    python benchmarks/planners.py [--steps 5000] [--planners pibt,guided]
+        [--skip-lorr] [--skip-kiva] [--time-limit S] [--json PATH] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+from warehouse_phys.envs import lorr
+from warehouse_phys.envs.fleet import parallel_env
+from warehouse_phys.files.atomic import atomic_write_text
+from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+MR23 = SHARED / "lorr" / "2023-main-warehouse" / "MR23-I-10.json"
+#: ``--quick`` plays the 200-robot example instance on the same map instead.
+EI23_200 = SHARED / "lorr" / "2023-examples-warehouse" / "EI23-warehouse_large_200.json"
+KIVA = SHARED / "maps" / "kiva-33-46.map"
+#: Robots on the Kiva floor.
+KIVA_ROBOTS = (32, 64, 96, 128, 160, 192, 224, 256)
+#: Published lifelong throughput on kiva-33-46 (256 steps) [deliveries/step], by robots.
+PUBLISHED_KIVA = {128: {"RHCR": 3.49}, 192: {"Follower": 3.94, "RHCR": 1.57}}
+
+
+def guidance_of(name: str, time_limit: float | None) -> dict[str, object]:
+    return {"time_limit": time_limit} if name != "pibt" and time_limit is not None else {}
+
+
+def lorr_run(
+    name: str, steps: int, window: int, time_limit: float | None, instance: Path = MR23
+) -> dict[str, object]:
+    """One planner on ``instance`` (MR23-I-10) in this process; its figures."""
+    env = lorr.fleet(instance, moves="grid", max_cycles=steps)
+    policy = planner_policy(name, seed=0, **guidance_of(name, time_limit))
+    gc.freeze()  # as simulate does: the floor's objects leave Python's full collections
+    observations, infos = env.reset(seed=0)
+    step_s, refused, done_at, searches, unguided = [], 0, [], [], 0
+    for _ in range(steps):
+        begun = time.process_time()
+        actions = policy(env, observations, infos)
+        observations, _, _, _, infos = env.step(actions)
+        step_s.append(time.process_time() - begun)
+        refused += sum(info["refused"] for info in infos.values())
+        done_at.append(env.errands.errands_done)
+        planner = getattr(policy, "planner", None)
+        if planner is not None:
+            searches.append(planner.guidance.searches)
+            unguided += planner.guidance.timed_out
+    later = step_s[1:] or step_s
+    last = min(window, steps)
+    return {
+        "planner": name,
+        "instance": env.instance.name,
+        "robots": env.num_robots,
+        "steps": steps,
+        "errands_per_step": env.errands.errands_done / steps,
+        "errands_per_step_last": (done_at[-1] - (done_at[-last - 1] if last < steps else 0)) / last,
+        "last_steps": last,
+        "refused": refused,
+        "first_step_s": step_s[0],
+        "step_s_median": statistics.median(later),
+        "step_s_max": max(later),
+        "first_step_searches": searches[0] if searches else None,
+        "searches_per_step": statistics.fmean(searches[1:] or searches) if searches else None,
+        "unguided": unguided,
+        "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }
+
+
+def describe_lorr(run: dict[str, object]) -> str:
+    searches = run["searches_per_step"]
+    guided = "" if searches is None else (
+        f", {searches:.0f} searches/step, {run['unguided']} robot-steps left unguided")  # fmt: skip
+    return (
+        f"{run['instance']} grid {run['robots']:>6,} robots {run['planner']:<13} "
+        f"{run['steps']:>5} steps: "
+        f"{run['errands_per_step']:6.2f} errands/step ({run['errands_per_step_last']:.2f} over "
+        f"the last {run['last_steps']}), {run['refused']} refused; first step "
+        f"{run['first_step_s']:.1f} s, then {run['step_s_median'] * 1000:.0f} ms/step (max "
+        f"{run['step_s_max'] * 1000:.0f}){guided}; peak {run['peak_rss_mib']:,.0f} MiB"
+    )
+
+
+def kiva_table(
+    planners: list[str], robots: tuple[int, ...], seeds: range, steps: int, time_limit: float | None
+) -> list[dict[str, object]]:
+    """Lifelong throughput on kiva-33-46, the planners interleaved seed by seed."""
+    rows = []
+    for n in robots:
+        env = parallel_env(num_robots=n, layout=str(KIVA), on_delivery="new_package",
+                           max_cycles=steps)  # fmt: skip
+        found = {name: {"per_seed": [], "plan_s": [], "refused": 0} for name in planners}
+        for seed in seeds:
+            for name in planners:
+                policy = planner_policy(name, seed=seed, **guidance_of(name, time_limit))
+                observations, infos = env.reset(seed=seed)
+                delivered = 0
+                for _ in range(steps):
+                    begun = time.process_time()
+                    actions = policy(env, observations, infos)
+                    found[name]["plan_s"].append(time.process_time() - begun)
+                    observations, rewards, _, _, infos = env.step(actions)
+                    delivered += int(sum(rewards.values()))
+                    found[name]["refused"] += sum(info["refused"] for info in infos.values())
+                found[name]["per_seed"].append(delivered / steps)
+        for name in planners:
+            values = found[name]["per_seed"]
+            plan_ms = 1000 * statistics.median(found[name]["plan_s"])
+            rows.append({"robots": n, "planner": name, "throughput": statistics.fmean(values),
+                         "per_seed": values, "refused": found[name]["refused"],
+                         "plan_ms_median": plan_ms})  # fmt: skip
+            row = rows[-1]
+            published = "; ".join(f"{k} {v}" for k, v in PUBLISHED_KIVA.get(n, {}).items())
+            print(
+                f"kiva-33-46 {n:>4} robots {name:<13} {row['throughput']:5.2f} deliveries/step "
+                f"(seeds {min(values):.2f}-{max(values):.2f}), {row['refused']} refused, plan "
+                f"{row['plan_ms_median']:.1f} ms{'; published: ' + published if published else ''}",
+                flush=True,
+            )
+    return rows
+
+
+def main(argv: list[str] | None = None) -> dict[str, object]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=5000, help="MR23-I-10 steps (5000)")
+    parser.add_argument("--window", type=int, default=1000, help="steps of the 'last' rate")
+    parser.add_argument("--planners", default="pibt,guided", help=f"of {','.join(PLANNERS)}")
+    parser.add_argument("--time-limit", type=float, help="the guidance's seconds a step")
+    parser.add_argument("--skip-lorr", action="store_true", help="no MR23-I-10 runs")
+    parser.add_argument("--skip-kiva", action="store_true", help="no kiva-33-46 table")
+    parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke test")
+    parser.add_argument("--json", type=Path, help="write the results to this JSON file")
+    parser.add_argument("--one", help=argparse.SUPPRESS)  # an MR23-I-10 run in a fresh process
+    args = parser.parse_args(argv)
+    planners = args.planners.split(",")
+    unknown = [name for name in planners if name not in PLANNERS]
+    if unknown:
+        parser.error(f"unknown planners {unknown}; known: {list(PLANNERS)}")
+    steps = 3 if args.quick else args.steps
+    if args.one is not None:
+        instance = EI23_200 if args.quick else MR23
+        print(json.dumps(lorr_run(args.one, steps, args.window, args.time_limit, instance)))
+        return {}
+    print(f"CPU time, one core; Python {platform.python_version()}, {os.cpu_count()} CPUs",
+          flush=True)  # fmt: skip
+    runs = []
+    if not args.skip_lorr and not MR23.exists():
+        print(f"MR23-I-10: skipped, {MR23} is absent")
+    elif not args.skip_lorr:
+        for name in planners:
+            command = [sys.executable, __file__, "--one", name, "--steps", str(steps),
+                       "--window", str(args.window)]  # fmt: skip
+            command += ["--quick"] if args.quick else []
+            if args.time_limit is not None:
+                command += ["--time-limit", str(args.time_limit)]
+            done = subprocess.run(command, capture_output=True, text=True, check=False)
+            if done.returncode != 0:
+                print(f"MR23-I-10 {name}: failed: {done.stderr.strip().splitlines()[-1:]}")
+                continue
+            runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+            print(describe_lorr(runs[-1]), flush=True)
+    table = []
+    if not args.skip_kiva and not KIVA.exists():
+        print(f"kiva-33-46: skipped, {KIVA} is absent")
+    elif not args.skip_kiva:
+        robots, seeds, horizon = ((32, 64), range(1), 16) if args.quick else (
+            KIVA_ROBOTS, range(5), 256)  # fmt: skip
+        table = kiva_table(planners, robots, seeds, horizon, args.time_limit)
+    summary = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "python": sys.version,
+               "timer": "time.process_time", "mr23": runs, "kiva": table,
+               "published_kiva": PUBLISHED_KIVA}  # fmt: skip
+    if args.json is not None:
+        atomic_write_text(args.json, json.dumps(summary, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    return summary
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,102 @@
+"""Fleet policies (``FleetPolicy``) of the planners beyond plain PIBT, by name.
+
+:func:`guided_pibt_policy` plans with :class:`~warehouse_phys.rules.guidance.GuidedPIBT`:
+PIBT following guide paths priced by the fleet's traffic. :func:`planner_policy` gives a
+policy by name (``"pibt"``, ``"guided"``, and the guidance's ablations ``"guided-costs"``
+and ``"guided-paths"``), for benchmarks and command lines.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from warehouse_phys.envs.fleet import WarehouseFleetEnv
+from warehouse_phys.rl.fleet_evaluation import FleetPolicy
+from warehouse_phys.rules.guidance import GuidanceConfig, GuidedPIBT
+from warehouse_phys.rules.planning import pibt_policy
+
+#: The guidance of each named planner: following congestion-priced guide paths
+#: (``guided``), the prices alone as a tie-break of PIBT's distances (``guided-costs``),
+#: following shortest guide paths (``guided-paths``).
+PLANNER_GUIDANCE: dict[str, GuidanceConfig] = {
+    "guided": GuidanceConfig(),
+    "guided-costs": GuidanceConfig(follow=False),
+    "guided-paths": GuidanceConfig(vertex_weight=0.0, contraflow_weight=0.0),
+}
+#: Every name :func:`planner_policy` knows.
+PLANNERS = ("pibt", *PLANNER_GUIDANCE)
+
+
+class GuidedPIBTPolicy:
+    """A fleet policy (``FleetPolicy``) that plans with
+    :class:`~warehouse_phys.rules.guidance.GuidedPIBT`; :func:`guided_pibt_policy` makes
+    one. ``planner`` is the planner of the episode under way (its ``guidance`` counts the
+    last step's searches and unguided robots), ``None`` before the first call."""
+
+    def __init__(self, seed: int = 0, config: GuidanceConfig | None = None) -> None:
+        self.seed = seed
+        self.config = config
+        self.planner: GuidedPIBT | None = None
+        self._env: WarehouseFleetEnv | None = None
+        self._index: dict[str, int] = {}
+
+    def __call__(
+        self,
+        env: WarehouseFleetEnv,
+        observations: dict[str, np.ndarray],
+        infos: dict[str, dict[str, Any]],
+    ) -> dict[str, int]:
+        """Every live robot's action for the next step, from the fleet's public state."""
+        if self._env is not env or env.steps == 0 or self.planner is None:
+            self._env = env
+            self.planner = GuidedPIBT(
+                env.grid,
+                distances=env.distances,
+                corner_follows=env.corner_follows,
+                seed=self.seed,
+                moves=getattr(env, "moves", "grid"),
+                config=self.config,
+            )
+            self._index = {agent: i for i, agent in enumerate(env.possible_agents)}
+        actions = self.planner.plan(
+            env.robot_cells,
+            env.package_cells,
+            ~env.parked & env.on_floor,
+            env.on_floor,
+            headings=getattr(env, "robot_headings", None),
+        ).tolist()
+        return {agent: actions[self._index[agent]] for agent in env.agents}
+
+
+def guided_pibt_policy(seed: int = 0, config: GuidanceConfig | None = None) -> FleetPolicy:
+    """A fleet policy that plans with :class:`~warehouse_phys.rules.guidance.GuidedPIBT`
+    (``config``: the guidance, :class:`~warehouse_phys.rules.guidance.GuidanceConfig`'s
+    defaults unless given): stateful across the steps of an episode, started afresh when
+    the environment resets (``env.steps`` back at 0) or another environment calls it, and
+    deterministic for a seed (while the guidance's ``time_limit`` is not reached). It reads
+    the fleet's public state only, as :func:`~warehouse_phys.rules.planning.pibt_policy`
+    does (a :class:`GuidedPIBTPolicy`)."""
+    return GuidedPIBTPolicy(seed, config)
+
+
+def planner_policy(name: str, seed: int = 0, **guidance: Any) -> FleetPolicy:
+    """The policy of the planner ``name`` (one of :data:`PLANNERS`), seeded; ``guidance``
+    overrides fields of a guided planner's :class:`~warehouse_phys.rules.guidance.GuidanceConfig`
+    (``time_limit=0.5``, say).
+
+    Raises:
+        ValueError: for an unknown name, or guidance given to plain PIBT.
+    """
+    if name == "pibt":
+        if guidance:
+            raise ValueError(f"plain PIBT takes no guidance, got {sorted(guidance)}")
+        return pibt_policy(seed=seed)
+    if name not in PLANNER_GUIDANCE:
+        raise ValueError(f"unknown planner {name!r}; known: {list(PLANNERS)}")
+    config = PLANNER_GUIDANCE[name]
+    if guidance:
+        config = dataclasses.replace(config, **guidance)
+    return guided_pibt_policy(seed=seed, config=config)

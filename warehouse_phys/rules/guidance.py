@@ -1,0 +1,372 @@
+"""Guidance for PIBT: guide paths that keep robots out of each other's way.
+
+Plain PIBT (:mod:`warehouse_phys.rules.planning`) sends every robot along a shortest path
+and settles each meeting greedily; at warehouse densities robots heading opposite ways
+meet head-on in one-cell aisles. Chen, Harabor, Li and Stuckey ("Traffic Flow
+Optimisation for Lifelong Multi-Agent Path Finding", AAAI 2024) give each robot a *guide
+path* priced by the others' guide paths, and let PIBT follow it. Here:
+
+- :class:`TrafficGuidance` keeps every robot's guide path and the *flow*, how many guide
+  paths leave each cell by each move (the part a robot has still to drive: the moves it
+  made are taken off as it makes them). A robot's guide path is searched anew when it
+  gets a new goal, when PIBT moved it off its path (pushed aside or back), and for
+  ``refresh`` other robots a step (in turn): an A* whose move from ``u`` to ``v`` costs
+  ``1 + vertex_weight * (guide paths leaving v) + contraflow_weight * (paths u->v + 1) *
+  (paths v->u)`` (:func:`~warehouse_phys.rules.graph_search.congestion_path`). A robot
+  that moved beside a cell further along its path rejoins it there without a search
+  (``rejoin=True``: also one pushed aside; on MR23-I-10 searching anew did better).
+- Following (``follow=True``): a candidate cell of a robot is valued by its guide path,
+  the moves left along it from the path cell it is on or beside (one more beside), as
+  guided PIBT does; so PIBT moves it along its path, and pushes and backtracks as ever.
+  Without following, the candidates keep their distances to the goal plus a share below
+  one move of the contraflow on the move (a tie-break towards the traffic's way); robots
+  then leave their guide paths often, and each departure is a search (an ablation, slow
+  on big fleets).
+- Bounded work: at most ``max_searches`` searches and ``time_limit`` seconds of guidance
+  a step; robots left without a guide path are valued by PIBT's own distances (``NaN``
+  values), so a step is always PIBT's, and every plan traffic grants.
+
+:class:`GuidedPIBT` is the planner: this guidance in front of PIBT's one-step resolution
+(the same :class:`~warehouse_phys.rules.planning.PIBT`, through its ``candidate_values``).
+Deterministic for a seed and the same inputs, as long as ``time_limit`` is not reached
+(:attr:`TrafficGuidance.timed_out` counts the robots it left unguided). Like the other
+rules, it imports neither gymnasium, pymunk nor pygame.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from warehouse_phys.rules import graph_search
+from warehouse_phys.rules.distances import DistanceMaps
+from warehouse_phys.rules.grid import WarehouseGrid
+from warehouse_phys.rules.planning import PIBT
+from warehouse_phys.rules.traffic import FLEET_ACTIONS, WAIT, neighbour_table
+
+
+@dataclass(frozen=True)
+class GuidanceConfig:
+    """How :class:`TrafficGuidance` prices and refreshes guide paths."""
+
+    #: Cost of a move per guide path leaving the cell it enters [moves].
+    vertex_weight: float = 0.5
+    #: Cost of a move per product of the paths along it (itself included) and against it.
+    contraflow_weight: float = 1.0
+    #: The A*'s heuristic is this times the Manhattan distance (1: the cheapest path).
+    heuristic_weight: float = 1.0
+    #: Whether robots follow their guide paths (else distances with a flow tie-break).
+    follow: bool = True
+    #: Robots whose guide path is searched anew each step besides those that need one.
+    refresh: int = 0
+    #: How many cells of its guide path ahead of a robot are looked at [cells].
+    window: int = 8
+    #: Whether a robot pushed aside or back, one move off its guide path, rejoins it
+    #: (else a new search; a robot beside a cell further along always rejoins).
+    rejoin: bool = False
+    #: Most guide-path searches in one step (None: no bound).
+    max_searches: int | None = None
+    #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
+    #: each: the robots left get PIBT's distances (and the run may differ between runs).
+    time_limit: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("vertex_weight", "contraflow_weight"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if not self.heuristic_weight >= 1:
+            raise ValueError(f"heuristic_weight must be >= 1, got {self.heuristic_weight!r}")
+        if self.refresh < 0 or self.window < 1:
+            raise ValueError(f"refresh must be >= 0 and window >= 1, got {self!r}")
+        if self.max_searches is not None and self.max_searches < 0:
+            raise ValueError(f"max_searches must be >= 0 or None, got {self.max_searches!r}")
+        if self.time_limit is not None and not self.time_limit >= 0:
+            raise ValueError(f"time_limit must be >= 0 or None, got {self.time_limit!r}")
+
+
+@dataclass
+class _Paths:
+    """Every robot's guide path: robot ``i``'s cells (map columns) are
+    ``pool[start[i] : start[i] + moves[i] + 1]``, its goal last, ``moves[i] < 0`` for none;
+    ``cursor[i]`` is where along it the robot stands."""
+
+    goal: np.ndarray
+    start: np.ndarray
+    moves: np.ndarray
+    cursor: np.ndarray
+    pool: np.ndarray = field(default_factory=lambda: np.empty(1 << 16, dtype=np.int32))
+    used: int = 0
+
+    @classmethod
+    def empty(cls, n: int) -> _Paths:
+        none = np.full(n, -1, dtype=np.int64)
+        return cls(none.copy(), none.copy(), none.copy(), np.zeros(n, dtype=np.int64))
+
+
+class TrafficGuidance:
+    """Guide paths for a fleet on one floor, priced by their own traffic (the module's
+    docstring), and the values PIBT ranks candidate cells by.
+
+    Call :meth:`update` once a step with every robot's cell and goal (cell indices
+    ``row * cols + col``); it returns ``(N, 5)`` candidate values for
+    :meth:`~warehouse_phys.rules.planning.PIBT.plan`'s ``candidate_values``.
+
+    Args:
+        grid: The floor.
+        config: Prices, refreshes and bounds (:class:`GuidanceConfig`).
+    """
+
+    def __init__(self, grid: WarehouseGrid, config: GuidanceConfig | None = None) -> None:
+        self.grid = grid
+        self.config = GuidanceConfig() if config is None else config
+        self._free = np.asarray(grid.free_mask, dtype=bool)
+        free_cells = np.flatnonzero(self._free.reshape(-1))
+        self._column = np.full(grid.rows * grid.cols + 1, -1, dtype=np.int64)  # last: -1
+        self._column[free_cells] = np.arange(len(free_cells))
+        self._cell_row = (free_cells // grid.cols).astype(np.int32)
+        self._cell_col = (free_cells % grid.cols).astype(np.int32)
+        self._table = neighbour_table(grid)
+        self._held = np.empty(0, dtype=np.int64)
+        self._floor_graph = graph_search.move_graph(self._free)
+        self._graph = self._floor_graph
+        n = len(free_cells)
+        #: How many guide paths leave each cell (map column) by each move.
+        self.flow = np.zeros((n, 4), dtype=np.int32)
+        self._scratch = np.zeros((n, 4), dtype=np.int32)
+        self._g_cost = np.zeros(n, dtype=np.float64)
+        self._path = np.empty(n, dtype=np.int32)
+        self._generation = 0
+        self._paths = _Paths.empty(0)
+        self._turn = 0  # the next robot whose guide path is refreshed
+        #: Guide-path searches made in the last step, and robots left unguided because
+        #: the step's time ran out.
+        self.searches = 0
+        self.timed_out = 0
+
+    def update(
+        self,
+        here: np.ndarray,
+        goal: np.ndarray,
+        active: np.ndarray,
+        distances: DistanceMaps | None = None,
+        held: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """One step's guidance: each ``active`` robot's guide path brought up to date
+        (moved along, rejoined, searched anew within the step's bounds), then the values of
+        its five candidate cells (its four moves in action order, then its own cell), lower
+        better, ``NaN`` where it has no guide path (and every row but the active robots').
+        ``held`` cells (robots that never move again) are walls to the guide paths.
+        Without following, ``distances`` (the planner's) give the values' distances.
+
+        Raises:
+            ValueError: if the number of robots changes between calls.
+        """
+        here = np.asarray(here, dtype=np.int64)
+        goal = np.asarray(goal, dtype=np.int64)
+        active = np.asarray(active, dtype=bool)
+        if len(self._paths.goal) != len(here):
+            if len(self._paths.goal):
+                raise ValueError("a new fleet needs a new TrafficGuidance")
+            self._paths = _Paths.empty(len(here))
+        self._hold(np.sort(np.asarray([] if held is None else held, dtype=np.int64)))
+        deadline = None if self.config.time_limit is None else (
+            time.perf_counter() + self.config.time_limit)  # fmt: skip
+        paths = self._paths
+        dropped = (paths.goal != goal) | ~active | (self._column[goal] < 0)
+        self._drop(np.flatnonzero(dropped & (paths.moves >= 0)))
+        paths.goal[:] = np.where(active, goal, -1)
+        status = np.ones(len(here), dtype=np.int8)
+        column = self._column[here]
+        graph_search.follow_paths(self._graph, self.flow, paths.pool, paths.start, paths.moves,
+                                  paths.cursor, column, self.config.window, self.config.rejoin,
+                                  status)  # fmt: skip
+        status[~active] = 1
+        self._search_paths(column, status, active, deadline)
+        return self._values(here, goal, column, status == 0, distances)
+
+    def _search_paths(
+        self, column: np.ndarray, status: np.ndarray, active: np.ndarray, deadline: float | None
+    ) -> None:
+        """Search the guide paths of the active robots that need one (``status`` 1), then
+        refresh ``refresh`` others in turn, within the step's bounds; ``status`` becomes 0
+        for every robot that has a guide path after."""
+        n = len(column)
+        order = np.roll(np.arange(n), -self._turn)  # who comes first turns round the fleet
+        reachable = self._column[self._paths.goal[order]] >= 0
+        needed = order[(status[order] == 1) & active[order] & reachable].tolist()
+        others = order[(status[order] == 0) & active[order]][: self.config.refresh].tolist()
+        self._turn = (self._turn + max(1, self.config.refresh)) % max(n, 1)
+        budget = self.config.max_searches
+        self.searches, self.timed_out = 0, 0
+        for done, i in enumerate([*needed, *others]):
+            if (budget is not None and done >= budget) or (
+                deadline is not None and time.perf_counter() > deadline
+            ):
+                self.timed_out = max(0, len(needed) - done)
+                return
+            self._drop(np.array([i]))
+            status[i] = 0 if self._search(i, int(column[i])) else 1
+            self.searches += 1
+
+    def _search(self, i: int, source: int) -> bool:
+        """Robot ``i``'s guide path from ``source`` (a map column) to its goal, stored and
+        added to the flow; False if its goal cannot be reached."""
+        self._generation += 1
+        if self._generation >= 2**31 - 1:
+            self._scratch[:, [0, 3]] = 0
+            self._generation = 1
+        paths, config = self._paths, self.config
+        costs = np.array([config.vertex_weight, config.contraflow_weight, config.heuristic_weight])
+        moves = graph_search.congestion_path(
+            self._graph, self._cell_row, self._cell_col, self.flow, source,
+            int(self._column[paths.goal[i]]), costs, self._scratch, self._g_cost,
+            self._generation, self._path)  # fmt: skip
+        if moves < 0:
+            return False
+        if paths.used + moves + 2 > len(paths.pool):
+            self._compact(moves + 2)
+        path = self._path[: moves + 1]
+        paths.pool[paths.used] = -1  # free: a robot pushed off the start rejoins there
+        paths.pool[paths.used + 1 : paths.used + moves + 2] = path
+        paths.start[i], paths.moves[i], paths.cursor[i] = paths.used + 1, moves, 0
+        paths.used += moves + 2
+        graph_search.add_flow(self._graph, self.flow, path, 1)
+        return True
+
+    def _drop(self, robots: np.ndarray) -> None:
+        """Take the guide paths of ``robots`` away, and what is left of them off the flow."""
+        paths = self._paths
+        for i in robots.tolist():
+            if paths.moves[i] >= 0:
+                first = paths.start[i] + paths.cursor[i]
+                rest = paths.pool[first : paths.start[i] + paths.moves[i] + 1]
+                graph_search.add_flow(self._graph, self.flow, rest, -1)
+            paths.moves[i] = -1
+
+    def _compact(self, needed: int) -> None:
+        """Room for ``needed`` more path cells: keep only the live paths' cells from each
+        robot's cursor on, and grow the pool if still short."""
+        paths = self._paths
+        live = np.flatnonzero(paths.moves >= 0)
+        left = paths.moves[live] - paths.cursor[live] + 1
+        total = int(left.sum()) + len(live)  # each with a cell before it: the cursor's
+        capacity = len(paths.pool)
+        while capacity < 2 * (total + needed):
+            capacity *= 2
+        pool = np.empty(capacity, dtype=np.int32)
+        starts = 1 + np.concatenate([[0], np.cumsum(left + 1)])[: len(live)].astype(np.int64)
+        for i, begin, size in zip(live.tolist(), starts.tolist(), left.tolist(), strict=True):
+            first = paths.start[i] + paths.cursor[i]
+            pool[begin - 1] = -1  # free again
+            pool[begin : begin + size] = paths.pool[first : first + size]
+        paths.start[live], paths.moves[live], paths.cursor[live] = starts, left - 1, 0
+        paths.pool, paths.used = pool, total
+
+    def _hold(self, held: np.ndarray) -> None:
+        """Make the ``held`` cells walls of the guide paths' graph; when they change, every
+        guide path is dropped (to be searched anew round them)."""
+        if np.array_equal(held, self._held):
+            return
+        self._held = held
+        self._drop(np.flatnonzero(self._paths.moves >= 0))
+        self._graph = self._floor_graph.copy()
+        walls = self._column[held]
+        walls = walls[walls >= 0]
+        if walls.size:
+            self._graph[np.isin(self._graph, walls)] = -1
+            self._graph[walls] = -1
+
+    def _values(
+        self,
+        here: np.ndarray,
+        goal: np.ndarray,
+        column: np.ndarray,
+        guided: np.ndarray,
+        distances: DistanceMaps | None,
+    ) -> np.ndarray:
+        """The ``(N, 5)`` candidate values (see :meth:`update`)."""
+        values = np.full((len(here), FLEET_ACTIONS), np.nan)
+        robots = np.flatnonzero(guided)
+        if not robots.size:
+            return values
+        candidates = self._table[here[robots]]
+        if self.config.follow:
+            found = np.empty(candidates.shape, dtype=np.float64)
+            graph_search.follow_values(self._paths.pool, self._paths.start, self._paths.moves,
+                                       self._paths.cursor, self._cell_row, self._cell_col,
+                                       self._column[candidates], robots, self.config.window,
+                                       found)  # fmt: skip
+            worst = self._paths.moves[robots] - self._paths.cursor[robots] + 2
+            values[robots] = np.where(np.isinf(found), worst[:, None], found)
+            return values
+        if distances is None:
+            raise ValueError("guidance without following needs the planner's distances")
+        targets = np.repeat(goal[robots], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
+        distance = distances.lookup(candidates, targets).astype(np.float64)
+        from_column = column[robots]
+        to_column = self._column[candidates[:, :WAIT]]
+        along = self.flow[from_column][:, :WAIT]
+        against = self.flow[to_column, [2, 3, 0, 1]]
+        share = against / (along + against + 1.0)
+        distance[:, :WAIT] += self.config.contraflow_weight * 0.9 * share
+        values[robots] = distance
+        return values
+
+
+class GuidedPIBT:
+    """PIBT following guide paths (:class:`TrafficGuidance`): the planner of
+    :func:`warehouse_phys.rl.fleet_planners.guided_pibt_policy`.
+
+    ``plan(cells, goals, movable, present)`` is :meth:`PIBT.plan
+    <warehouse_phys.rules.planning.PIBT.plan>`'s, with the candidates of each robot that
+    has a guide path ranked by it; its promises are PIBT's (every plan granted by the
+    traffic rule, the same plan for the same seed and inputs), and the guidance's
+    bounds hold each step (``config.max_searches``, ``config.time_limit``).
+
+    Args:
+        grid: The floor.
+        distances: The floor's distance maps (a fleet's ``env.distances``); new by default.
+        corner_follows: As :class:`~warehouse_phys.rules.planning.PIBT`.
+        seed: Seeds PIBT's tie-breaks.
+        moves: ``"grid"`` or ``"rotate"``, as PIBT.
+        config: The guidance's prices, refreshes and bounds.
+    """
+
+    def __init__(
+        self,
+        grid: WarehouseGrid,
+        *,
+        distances: DistanceMaps | None = None,
+        corner_follows: bool = True,
+        seed: int = 0,
+        moves: str = "grid",
+        config: GuidanceConfig | None = None,
+    ) -> None:
+        self.pibt = PIBT(grid, distances=distances, corner_follows=corner_follows, seed=seed,
+                         moves=moves)  # fmt: skip
+        self.guidance = TrafficGuidance(grid, config)
+
+    def plan(
+        self,
+        cells: np.ndarray,
+        goals: np.ndarray,
+        movable: np.ndarray | None = None,
+        present: np.ndarray | None = None,
+        *,
+        headings: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The next joint action, as :meth:`PIBT.plan
+        <warehouse_phys.rules.planning.PIBT.plan>` (``(N,)`` int64), guided."""
+        cols = self.pibt.grid.cols
+        cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+        goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
+        n = len(cells)
+        present = np.ones(n, dtype=bool) if present is None else np.asarray(present, bool)
+        movable = present.copy() if movable is None else np.asarray(movable, bool) & present
+        here = cells[:, 0] * cols + cells[:, 1]
+        values = self.guidance.update(here, goals[:, 0] * cols + goals[:, 1], movable,
+                                      self.pibt.distances, here[present & ~movable])  # fmt: skip
+        return self.pibt.plan(cells, goals, movable, present, headings=headings,
+                              candidate_values=values)  # fmt: skip
