@@ -144,8 +144,8 @@ KEEP_SHARE, KEEP_AT = 0.8, 0.005
 CPU_PER_MOVE_TARGET_S = 0.25
 TEN_THOUSAND = ("warehouse-large-140-500", 10_000)
 #: ``--quick``: a smoke run of every setting.
-QUICK = {"robots": "24,60", "ticks": 60, "ten_thousand_robots": 300, "ten_thousand_ticks": 20,
-         "physics_robots": 40, "physics_ticks": 30}  # fmt: skip
+QUICK = {"robots": "24,60", "ticks": 45, "ten_thousand_robots": 300, "ten_thousand_ticks": 20,
+         "physics_robots": 30, "physics_ticks": 20}  # fmt: skip
 
 
 @dataclass

@@ -84,7 +84,7 @@ SPEEDS = [1, 2, 1.5, 1] * 3 + [1, 1]
 def test_the_physics_twin_follows_the_grid_twin_and_bodies_never_touch(
     seed, ticks_per_move, speeds, moves
 ):
-    errands = run_both(seed, 150, layout=FLOOR, num_robots=14, ticks_per_move=ticks_per_move,
+    errands = run_both(seed, 100, layout=FLOOR, num_robots=14, ticks_per_move=ticks_per_move,
                        speeds=speeds, delays=DELAYS, moves=moves)  # fmt: skip
     assert errands > 0
 
