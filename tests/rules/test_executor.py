@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from tests.rules.random_floors import shelf_layout
 from warehouse_phys.rules.async_grid import AsyncGrid, gap_conflicts, swap_conflicts
 from warehouse_phys.rules.executor import DEFAULT_MIN_GAP, Executor
 from warehouse_phys.rules.grid import WarehouseGrid
@@ -16,11 +17,9 @@ from warehouse_phys.rules.windows import pibt_window
 def random_fleet(rows, cols, shelf_bits, robots, seed):
     """A floor with shelves from ``shelf_bits``, up to ``robots`` robots on distinct
     reachable cells and goals on reachable cells; ``None`` when the floor has no room."""
-    cells = [["#" if (shelf_bits >> (r * 7 + c)) & 1 and (r + c) % 3 else "."
-              for c in range(cols)] for r in range(rows)]  # fmt: skip
-    cells[0][0] = "S"
+    layout = shelf_layout(rows, cols, shelf_bits)
     try:
-        grid = WarehouseGrid.from_layout(["".join(row) for row in cells])
+        grid = WarehouseGrid.from_layout(layout)
     except ValueError:  # no room for a package
         return None
     room = np.argwhere(grid.reachable_mask)

@@ -12,6 +12,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import ROOT
+from tests.rules.random_floors import shelf_layout
 from warehouse_phys.envs import fleet
 from warehouse_phys.rl.fleet_planners import guided_pibt_policy, planner_policy
 from warehouse_phys.rules import graph_search
@@ -65,12 +66,10 @@ def flow_of_paths(guidance: TrafficGuidance) -> np.ndarray:
 def test_traffic_grants_every_guided_plan_on_any_floor(
     rows, cols, shelf_bits, robots, seed, corner_follows, lifelong, moves, name
 ):
-    cells = [["#" if (shelf_bits >> (r * 7 + c)) & 1 and (r + c) % 3 else "."
-              for c in range(cols)] for r in range(rows)]  # fmt: skip
-    cells[0][0] = "S"
+    layout = shelf_layout(rows, cols, shelf_bits)
     try:
         env = fleet.parallel_env(
-            num_robots=robots, layout=["".join(row) for row in cells], starts="random",
+            num_robots=robots, layout=layout, starts="random",
             on_delivery="new_package" if lifelong else "park", max_cycles=30, moves=moves,
             **({} if corner_follows else {"robot_radius": 0.34}),
         )  # fmt: skip

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
+from tests.rules.random_floors import shelf_layout
 from warehouse_phys.envs import fleet
 from warehouse_phys.rl.fleet_evaluation import evaluate_fleet, evaluate_throughput
 from warehouse_phys.rules.distances import DistanceMaps
@@ -46,12 +47,10 @@ def test_traffic_grants_every_plan_on_any_floor(
     rows, cols, shelf_bits, robots, seed, corner_follows, lifelong, moves
 ):
     """Four-direction and turning robots alike."""
-    cells = [["#" if (shelf_bits >> (r * 7 + c)) & 1 and (r + c) % 3 else "."
-              for c in range(cols)] for r in range(rows)]  # fmt: skip
-    cells[0][0] = "S"
+    layout = shelf_layout(rows, cols, shelf_bits)
     try:
         env = fleet.parallel_env(
-            num_robots=robots, layout=["".join(row) for row in cells], starts="random",
+            num_robots=robots, layout=layout, starts="random",
             on_delivery="new_package" if lifelong else "park", max_cycles=40, moves=moves,
             **({} if corner_follows else BIG_ROBOT),
         )  # fmt: skip
