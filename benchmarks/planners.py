@@ -1,6 +1,6 @@
-"""Guided PIBT against plain PIBT: the LoRR 10,000-robot instance and the Kiva floor.
+"""Guided PIBT against plain PIBT: the LoRR 10,000-robot instance, the Kiva floor, scaling.
 
-Two measurements, one core (numpy's threads held to one), CPU time (``time.process_time``):
+Three measurements, one core (numpy's threads held to one), CPU time (``time.process_time``):
 
 - **MR23-I-10** (League of Robot Runners 2023, 10,000 robots on warehouse_large, four
   directions; record 38.9 errands a step with turning robots, plain PIBT about 22): each
@@ -8,11 +8,17 @@ Two measurements, one core (numpy's threads held to one), CPU time (``time.proce
   step (and over the last ``--window`` steps), refused moves, the first step (the first
   errands' distance maps and, guided, every robot's first guide path), the median and
   slowest later step, guide-path searches a step, robots the time limit left unguided,
-  peak resident memory.
+  peak resident memory. ``--moves rotate``: turning robots (LoRR's own model).
 - **kiva-33-46** (POGEMA's lifelong setting: 256 steps, seeds 0-4) at 32 to 256 robots:
   deliveries a step, the mean over the seeds, the planners interleaved seed by seed on
   the same fleet; the median CPU time of a plan. Published at 128 robots: RHCR 3.49; at
   192: Follower 3.94 (POGEMA).
+- **Scaling** (``--scaling``): 1,000 to 10,000 robots on warehouse_large
+  (``warehouse-large-140-500.map``), lifelong with random packages, ``--scaling-steps``
+  steps: errands a step over the run and over its last half, each planner against the
+  congestion-free ceiling, robots divided by the mean shortest distance between
+  consecutive errands (measured: from each delivered package to the robot's next one, over
+  the runs' deliveries); ``--plot PATH`` draws it.
 
 Planners are named as :data:`warehouse_phys.rl.fleet_planners.PLANNERS`: ``pibt``,
 ``guided`` (following congestion-priced guide paths), and the ablations
@@ -20,7 +26,8 @@ Planners are named as :data:`warehouse_phys.rl.fleet_planners.PLANNERS`: ``pibt`
 distances with the guide paths' traffic as a tie-break).
 
     python benchmarks/planners.py [--steps 5000] [--planners pibt,guided]
-        [--skip-lorr] [--skip-kiva] [--time-limit S] [--json PATH] [--quick]
+        [--skip-lorr] [--skip-kiva] [--moves grid|rotate] [--time-limit S] [--json PATH]
+        [--scaling] [--scaling-steps 500] [--plot PATH] [--quick]
 """
 
 from __future__ import annotations
@@ -37,13 +44,15 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 from warehouse_phys.envs import lorr
 from warehouse_phys.envs.fleet import parallel_env
-from warehouse_phys.files.atomic import atomic_write_text
+from warehouse_phys.files.atomic import atomic_write, atomic_write_text
 from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
@@ -51,6 +60,9 @@ MR23 = SHARED / "lorr" / "2023-main-warehouse" / "MR23-I-10.json"
 #: ``--quick`` plays the 200-robot example instance on the same map instead.
 EI23_200 = SHARED / "lorr" / "2023-examples-warehouse" / "EI23-warehouse_large_200.json"
 KIVA = SHARED / "maps" / "kiva-33-46.map"
+WAREHOUSE_LARGE = SHARED / "maps" / "warehouse-large-140-500.map"
+#: Robots on warehouse_large in the scaling runs (``--quick``: a few).
+SCALING_ROBOTS = (1000, 2000, 5000, 10000)
 #: Robots on the Kiva floor.
 KIVA_ROBOTS = (32, 64, 96, 128, 160, 192, 224, 256)
 #: Published lifelong throughput on kiva-33-46 (256 steps) [deliveries/step], by robots.
@@ -62,10 +74,15 @@ def guidance_of(name: str, time_limit: float | None) -> dict[str, object]:
 
 
 def lorr_run(
-    name: str, steps: int, window: int, time_limit: float | None, instance: Path = MR23
+    name: str,
+    steps: int,
+    window: int,
+    time_limit: float | None,
+    instance: Path = MR23,
+    moves: str = "grid",
 ) -> dict[str, object]:
     """One planner on ``instance`` (MR23-I-10) in this process; its figures."""
-    env = lorr.fleet(instance, moves="grid", max_cycles=steps)
+    env = lorr.fleet(instance, moves=moves, max_cycles=steps)
     policy = planner_policy(name, seed=0, **guidance_of(name, time_limit))
     gc.freeze()  # as simulate does: the floor's objects leave Python's full collections
     observations, infos = env.reset(seed=0)
@@ -86,6 +103,7 @@ def lorr_run(
     return {
         "planner": name,
         "instance": env.instance.name,
+        "moves": moves,
         "robots": env.num_robots,
         "steps": steps,
         "errands_per_step": env.errands.errands_done / steps,
@@ -107,7 +125,8 @@ def describe_lorr(run: dict[str, object]) -> str:
     guided = "" if searches is None else (
         f", {searches:.0f} searches/step, {run['unguided']} robot-steps left unguided")  # fmt: skip
     return (
-        f"{run['instance']} grid {run['robots']:>6,} robots {run['planner']:<13} "
+        f"{run['instance']} {run.get('moves', 'grid')} {run['robots']:>6,} robots "
+        f"{run['planner']:<13} "
         f"{run['steps']:>5} steps: "
         f"{run['errands_per_step']:6.2f} errands/step ({run['errands_per_step_last']:.2f} over "
         f"the last {run['last_steps']}), {run['refused']} refused; first step "
@@ -155,6 +174,114 @@ def kiva_table(
     return rows
 
 
+def scaling_run(
+    name: str, robots: int, steps: int, time_limit: float | None, layout: Path = WAREHOUSE_LARGE
+) -> dict[str, object]:
+    """One planner, ``robots`` robots on ``layout``, lifelong with random packages, seed 0:
+    errands a step (the run, its last half) and the lengths of the errands handed out
+    (shortest distance from each delivered package to the robot's next package)."""
+    env = parallel_env(layout=str(layout), num_robots=robots, lifelong=True, max_cycles=steps)
+    policy = planner_policy(name, seed=0, **guidance_of(name, time_limit))
+    observations, infos = env.reset(seed=0)
+    cols, done_at, legs, refused, step_s = env.grid.cols, [], [], 0, []
+    for _ in range(steps):
+        before = env.package_cells.copy()
+        begun = time.process_time()
+        actions = policy(env, observations, infos)
+        step_s.append(time.process_time() - begun)
+        observations, _, _, _, infos = env.step(actions)
+        refused += sum(info["refused"] for info in infos.values())
+        done_at.append(int(env.deliveries.sum()))
+        after = env.package_cells
+        new = (before != after).any(axis=1)
+        if new.any():
+            old_cells, new_cells = before[new], after[new]
+            legs.append(env.distances.lookup(old_cells[:, 0] * cols + old_cells[:, 1],
+                                             new_cells[:, 0] * cols + new_cells[:, 1]))  # fmt: skip
+    half = steps - steps // 2
+    legs_all = np.concatenate(legs) if legs else np.zeros(0, np.int64)
+    return {
+        "planner": name,
+        "robots": robots,
+        "steps": steps,
+        "errands_per_step": done_at[-1] / steps,
+        "errands_per_step_last_half": (done_at[-1] - (done_at[-half - 1] if half < steps else 0))
+        / half,
+        "refused": refused,
+        "step_s_median": statistics.median(step_s[1:] or step_s),
+        "legs": int(legs_all.size),
+        "leg_sum": int(legs_all.sum()),
+    }
+
+
+def scaling_table(
+    planners: list[str],
+    robots: tuple[int, ...],
+    steps: int,
+    time_limit: float | None,
+    layout: Path = WAREHOUSE_LARGE,
+) -> dict[str, object]:
+    """The planners at each fleet size on ``layout``, and the congestion-free ceiling."""
+    rows = []
+    for n in robots:
+        found = [scaling_run(name, n, steps, time_limit, layout) for name in planners]
+        legs = sum(run["legs"] for run in found)
+        mean_leg = sum(run["leg_sum"] for run in found) / legs if legs else None
+        for run in found:
+            run["ceiling"] = n / mean_leg if mean_leg else None
+            run["mean_errand_distance"] = mean_leg
+            rows.append(run)
+            print(
+                f"{layout.stem} {n:>6,} robots {run['planner']:<13} {steps} steps: "
+                f"{run['errands_per_step']:6.2f} errands/step "
+                f"({run['errands_per_step_last_half']:.2f} over the last half), "
+                f"{run['refused']} refused, {run['step_s_median'] * 1000:.0f} ms/step; "
+                + (
+                    f"ceiling {run['ceiling']:.2f} (mean errand {mean_leg:.1f} moves, "
+                    f"{legs} errands)"
+                    if mean_leg
+                    else "no errand handed out: no ceiling"
+                ),
+                flush=True,
+            )
+    return {"layout": layout.name, "steps": steps, "rows": rows}
+
+
+def scaling_plot(scaling: dict[str, object], path: Path) -> None:
+    """Errands a step against robots, each planner and the ceiling; PNG at ``path``."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = scaling["rows"]
+    robots = sorted({row["robots"] for row in rows})
+    ceiling = [next(r["ceiling"] for r in rows if r["robots"] == n) for n in robots]
+    ceiling = [float("nan") if value is None else value for value in ceiling]
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
+    ax.plot(robots, ceiling, "k--", marker="o", label="congestion-free ceiling")
+    for name in dict.fromkeys(row["planner"] for row in rows):
+        mine = [r for r in rows if r["planner"] == name]
+        label = "guided PIBT" if name == "guided" else "PIBT" if name == "pibt" else name
+        ax.plot([r["robots"] for r in mine], [r["errands_per_step_last_half"] for r in mine],
+                marker="o", label=f"{label} (last half)")  # fmt: skip
+        ax.plot([r["robots"] for r in mine], [r["errands_per_step"] for r in mine],
+                marker=".", linestyle=":", color=ax.lines[-1].get_color(),
+                label=f"{label} (whole run)")  # fmt: skip
+    ax.set_xlabel("robots")
+    ax.set_ylabel("errands a step")
+    ax.set_title(f"{scaling['layout']}, lifelong, {scaling['steps']} steps, seed 0")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    plt.close(fig)
+    atomic_write(path, lambda out: out.write(buffer.getvalue()))
+
+
 def main(argv: list[str] | None = None) -> dict[str, object]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=5000, help="MR23-I-10 steps (5000)")
@@ -164,6 +291,11 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     parser.add_argument("--skip-lorr", action="store_true", help="no MR23-I-10 runs")
     parser.add_argument("--skip-kiva", action="store_true", help="no kiva-33-46 table")
     parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke test")
+    parser.add_argument("--moves", default="grid", choices=("grid", "rotate"),
+                        help="MR23-I-10's move model (grid)")  # fmt: skip
+    parser.add_argument("--scaling", action="store_true", help="warehouse_large, 1k-10k robots")
+    parser.add_argument("--scaling-steps", type=int, default=500, help="steps a scaling run")
+    parser.add_argument("--plot", type=Path, help="draw the scaling runs to this PNG")
     parser.add_argument("--json", type=Path, help="write the results to this JSON file")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # an MR23-I-10 run in a fresh process
     args = parser.parse_args(argv)
@@ -174,7 +306,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     steps = 3 if args.quick else args.steps
     if args.one is not None:
         instance = EI23_200 if args.quick else MR23
-        print(json.dumps(lorr_run(args.one, steps, args.window, args.time_limit, instance)))
+        run = lorr_run(args.one, steps, args.window, args.time_limit, instance, args.moves)
+        print(json.dumps(run))
         return {}
     print(f"CPU time, one core; Python {platform.python_version()}, {os.cpu_count()} CPUs",
           flush=True)  # fmt: skip
@@ -184,7 +317,7 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     elif not args.skip_lorr:
         for name in planners:
             command = [sys.executable, __file__, "--one", name, "--steps", str(steps),
-                       "--window", str(args.window)]  # fmt: skip
+                       "--window", str(args.window), "--moves", args.moves]  # fmt: skip
             command += ["--quick"] if args.quick else []
             if args.time_limit is not None:
                 command += ["--time-limit", str(args.time_limit)]
@@ -201,9 +334,18 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         robots, seeds, horizon = ((32, 64), range(1), 16) if args.quick else (
             KIVA_ROBOTS, range(5), 256)  # fmt: skip
         table = kiva_table(planners, robots, seeds, horizon, args.time_limit)
+    scaling = None
+    if args.scaling and not WAREHOUSE_LARGE.exists():
+        print(f"scaling: skipped, {WAREHOUSE_LARGE} is absent")
+    elif args.scaling:
+        robots, horizon = ((100, 200), 4) if args.quick else (SCALING_ROBOTS, args.scaling_steps)
+        scaling = scaling_table(planners, robots, horizon, args.time_limit)
+        if args.plot is not None:
+            scaling_plot(scaling, args.plot)
+            print(f"wrote {args.plot}")
     summary = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "python": sys.version,
                "timer": "time.process_time", "mr23": runs, "kiva": table,
-               "published_kiva": PUBLISHED_KIVA}  # fmt: skip
+               "published_kiva": PUBLISHED_KIVA, "scaling": scaling}  # fmt: skip
     if args.json is not None:
         atomic_write_text(args.json, json.dumps(summary, indent=2) + "\n")
         print(f"wrote {args.json}")

@@ -207,13 +207,14 @@ def test_the_delays_benchmark_reports_every_figure_with_no_conflict(tmp_path):
 
 
 def test_the_planners_benchmark_reports_guided_beside_plain_pibt(tmp_path):
-    """A smoke run: the 200-robot LoRR example and two Kiva sizes, a few steps each."""
+    """A smoke run: the 200-robot LoRR example, two Kiva sizes and two warehouse_large
+    fleets (the scaling plot), a few steps each."""
     shared = ROOT.parent / "shared"
     if not (shared / "lorr").is_dir() or not (shared / "maps" / "kiva-33-46.map").exists():
         pytest.skip("LoRR instances or kiva-33-46.map not found beside the checkout")
     result = subprocess.run(
         [sys.executable, "benchmarks/planners.py", "--quick", "--json",
-         str(tmp_path / "planners.json")],
+         str(tmp_path / "planners.json"), "--scaling", "--plot", str(tmp_path / "scaling.png")],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
@@ -226,3 +227,9 @@ def test_the_planners_benchmark_reports_guided_beside_plain_pibt(tmp_path):
     assert [run["planner"] for run in summary["mr23"]] == ["pibt", "guided"]
     assert summary["mr23"][1]["searches_per_step"] >= 0
     assert len(summary["kiva"]) == 4
+    if (shared / "maps" / "warehouse-large-140-500.map").exists():
+        rows = summary["scaling"]["rows"]
+        assert [(row["robots"], row["planner"]) for row in rows] == [
+            (100, "pibt"), (100, "guided"), (200, "pibt"), (200, "guided")]  # fmt: skip
+        assert all(row["refused"] == 0 for row in rows)
+        assert (tmp_path / "scaling.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
