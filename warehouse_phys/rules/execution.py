@@ -151,7 +151,7 @@ class Execution:
             raise TypeError(f"delays must be a DelayConfig or None, got {type(delays).__name__}")
         self.delays = None if delays is None else DelayGenerator(delays, n)
         #: Whether the windows may hold rotations (else they are broken).
-        self.rotations = bool((needed == needed[0]).all()) and (
+        self.rotations = bool((needed == needed[:1]).all()) and (
             self.executor.min_gap <= DEFAULT_MIN_GAP
         )
         moves = "grid" if headings is None else "rotate"
