@@ -105,7 +105,8 @@ def test_holding_every_robot_stops_the_fleet_and_counts_as_held():
 def test_a_lifelong_fleet_delivers_and_the_same_seed_gives_the_same_run():
     def run():
         env = async_fleet.parallel_env(layout=FLOOR, num_robots=8, ticks_per_move=3,
-                                       delays=DELAYS, max_cycles=200)  # fmt: skip
+                                       delays=DELAYS, max_cycles=200,
+                                       around_delays="reroute")  # fmt: skip
         observations, _ = env.reset(seed=5)
         trace = []
         while env.agents:
@@ -147,6 +148,8 @@ def test_bad_arguments_and_actions_are_refused_in_one_line():
         async_fleet.parallel_env(layout=FLOOR, tick_steps=3)
     with pytest.raises(TypeError, match="delays must be"):
         async_fleet.parallel_env(layout=FLOOR, delays="often")
+    with pytest.raises(ValueError, match="around_delays must be one of"):
+        async_fleet.parallel_env(layout=FLOOR, around_delays="dodge")
     env = async_fleet.parallel_env(layout=FLOOR, num_robots=2)
     env.reset(seed=0)
     for actions, error in [({"robot_0": 1}, ValueError), ({"robot_0": 2, "robot_1": 1},

@@ -127,6 +127,8 @@ class AsyncFleetEnv(ParallelEnv):
       draws them: every episode has the same delays unless ``reset(options={"delays":
       ...})`` gives another configuration.
     - ``plan_every`` (ticks, default ``ticks_per_move``), ``window`` (steps, default 1),
+      ``around_delays`` (``"wait"``, ``"reroute"``, ``"off"``: how the windows treat
+      delayed robots, :class:`~warehouse_phys.rules.execution.Execution`),
       ``min_gap`` (cells; default the executor's, with physics what the bodies need;
       a smaller one than the bodies need is refused).
     - ``physics`` (bool), ``tick_steps`` (physics steps a tick), the physical keywords
@@ -160,6 +162,7 @@ class AsyncFleetEnv(ParallelEnv):
         delays: DelayConfig | dict[str, Any] | None = None,
         plan_every: int | None = None,
         window: int = 1,
+        around_delays: str = "wait",
         min_gap: float | None = None,
         physics: bool = False,
         tick_steps: int | None = None,
@@ -200,7 +203,8 @@ class AsyncFleetEnv(ParallelEnv):
         if not physics and physical:
             raise TypeError(f"physical keywords {sorted(physical)} need physics=True")
         self._options = {"ticks_per_move": ticks_per_move, "speeds": speeds,
-                         "plan_every": plan_every, "window": window, "seed": seed}  # fmt: skip
+                         "plan_every": plan_every, "window": window,
+                         "around_delays": around_delays, "seed": seed}  # fmt: skip
         self._reachable = reachable_cells(self.grid)
         self._targets = package_cells(self.grid)
         if self.instance is None:
