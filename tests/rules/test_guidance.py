@@ -2,6 +2,7 @@
 deterministic and bounded, and it steers robots apart where plain PIBT meets head-on."""
 
 import hashlib
+import itertools
 import json
 import subprocess
 import sys
@@ -175,6 +176,31 @@ def test_robots_heading_opposite_ways_get_aisles_of_their_own():
         assert (rows[1].max() == 2) == apart
 
 
+def guide_path_turns(facing, turn_cost):
+    """The guide path of one robot facing move ``facing`` across an open 7 x 7 floor,
+    corner to corner, and how many quarter turns driving it takes."""
+    grid = WarehouseGrid.from_layout(["......."] * 7)
+    guidance = TrafficGuidance(grid, GuidanceConfig(turn_cost=turn_cost))
+    guidance.update(np.array([0]), np.array([48]), np.ones(1, dtype=bool), facing=facing)
+    paths = guidance._paths
+    cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1]
+    moves = [graph_search._move_of(guidance._graph, a, b) for a, b in itertools.pairwise(cells)]
+    turns = sum(1 for a, b in itertools.pairwise([int(facing[0]), *moves]) if a != b)
+    return len(moves), turns
+
+
+@pytest.mark.parametrize("facing", [0, 1, 2, 3])  # left, down, right, up
+def test_a_turning_robots_guide_path_turns_as_little_as_it_can(facing):
+    """Every shortest path across an open floor is as cheap to a four-direction robot;
+    a turning robot's guide path is still shortest, and turns the fewest times from the
+    way it faces: once when it faces down or right, twice when it faces away."""
+    moves, turns = guide_path_turns(np.array([facing]), 1.0)
+    assert moves == 12
+    assert turns == (1 if facing in (1, 2) else 2)
+    if facing == 2:  # searched as a four-direction robot's, it goes down first
+        assert guide_path_turns(np.array([facing]), None) == (12, 2)
+
+
 def test_golden_plans_on_the_two_aisle_floor():
     """Four robots, two each way, over the two-aisle floor: the guided plans, recorded.
     The top aisle's robots go right and the bottom one's left, meeting nobody head-on;
@@ -224,8 +250,19 @@ def test_candidate_values_of_nan_leave_pibt_as_it_was():
 @pytest.mark.parametrize(
     "bad",
     [{"vertex_weight": -1}, {"heuristic_weight": 0.5}, {"window": 0}, {"max_searches": -1},
-     {"time_limit": -0.1}, {"refresh": -2}],
+     {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}],
 )  # fmt: skip
 def test_nonsense_guidance_is_refused(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):
         GuidanceConfig(**bad)
+
+
+@pytest.mark.parametrize("facing", [np.array([4]), np.array([-1]), np.array([0, 1])])
+def test_a_facing_that_is_not_one_move_a_robot_is_refused_and_nothing_changes(facing):
+    grid = WarehouseGrid.from_layout(TWO_AISLES)
+    guidance = TrafficGuidance(grid)
+    with pytest.raises(ValueError, match="facing"):
+        guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=facing)
+    assert not guidance.flow.any()
+    guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=np.array([2]))
+    assert guidance.flow.sum() == 7

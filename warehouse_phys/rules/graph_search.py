@@ -338,6 +338,7 @@ def congestion_path(
     g_cost: np.ndarray,
     generation: int,
     path: np.ndarray,
+    facing: int = -1,
 ) -> int:
     """A* from ``source`` to ``goal`` (columns) on moves priced by traffic (Chen, Harabor,
     Li and Stuckey's guide paths, their sum objective): a move from ``u`` to ``v`` by move
@@ -347,7 +348,13 @@ def congestion_path(
     the cheapest; above 1, weighted A*, fewer expansions for dearer paths). Writes the
     path, ``source`` first and ``goal`` last, into ``path`` and returns its moves, or -1
     if ``goal`` cannot be reached. ``scratch`` (``(n, 4)`` int32) and ``generation`` work
-    as in :func:`shortest_path`; ``g_cost`` (``(n,)`` float64) holds the costs so far."""
+    as in :func:`shortest_path`; ``g_cost`` (``(n,)`` float64) holds the costs so far.
+
+    A turning robot (``facing``: the move it faces, else -1) also pays ``costs[3]`` for
+    each quarter turn, counted along the search tree (a move other than the one into the
+    cell turns once; back the way it came, twice): not the exact ``(cell, heading)``
+    search, which measured 3.5 times the time for 0.4 % more errands, but of equally
+    priced paths it mostly finds one with fewer turns."""
     if source == goal:
         path[0] = source
         return 0
@@ -373,6 +380,9 @@ def congestion_path(
                 cell = scratch[cell, 2]
             return length
         g, depth = g_cost[cell], scratch[cell, 1] + 1
+        came = facing  # the move it made into this cell (turning robots only)
+        if facing >= 0 and cell != source:
+            came = _move_of(neighbours, scratch[cell, 2], cell)
         for k in range(4):
             other = neighbours[cell, k]
             if other < 0 or scratch[other, 3] == generation:
@@ -380,6 +390,8 @@ def congestion_path(
             vertex = flow[other, 0] + flow[other, 1] + flow[other, 2] + flow[other, 3]
             contra = (flow[cell, k] + 1) * flow[other, (k + 2) % 4]
             cost = g + 1.0 + costs[0] * vertex + costs[1] * contra
+            if facing >= 0 and k != came:
+                cost += costs[3] * (2.0 if k == (came + 2) % 4 else 1.0)
             if scratch[other, 0] == generation and g_cost[other] <= cost:
                 continue
             scratch[other, 0], scratch[other, 1], scratch[other, 2] = generation, depth, cell
