@@ -1,5 +1,7 @@
 """Pictures: learning curves, frames, paths, speeds, snap errors and policies, without pyplot."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -15,6 +17,7 @@ from warehouse_phys.viz.plots import (
     learning_curve_figure,
     learning_curves_figure,
     path_figure,
+    planner_scaling_figure,
     policy_figure,
     rolling_mean,
     save_figure,
@@ -288,3 +291,39 @@ def test_a_sweep_whose_trials_all_failed_draws_without_a_warning():
         "grid, default",
         "phys, default",
     ]
+
+
+SCALING = {
+    "layout": "warehouse-large-140-500.map",
+    "steps": 500,
+    "rows": [
+        {"planner": name, "robots": n, "errands_per_step": run, "errands_per_step_last_half": last,
+         "ceiling": ceiling}
+        for name, n, run, last, ceiling in [
+            ("pibt", 2000, 6.7, 8.0, 9.35), ("guided", 2000, 7.7, 9.2, 9.35),
+            ("pibt", 1000, 3.6, 4.4, 4.65), ("guided", 1000, 3.8, 4.5, 4.65),
+        ]
+    ],
+}  # fmt: skip
+
+
+def test_the_planner_scaling_figure_draws_the_ceiling_and_each_planners_two_rates(tmp_path):
+    figure = planner_scaling_figure(SCALING)
+    (ax,) = figure.axes
+    ceiling, pibt_last, pibt_run, guided_last, guided_run = ax.lines
+    assert list(ceiling.get_xdata()) == [1000, 2000]
+    assert list(ceiling.get_ydata()) == [4.65, 9.35]
+    assert list(pibt_last.get_ydata()) == [4.4, 8.0]  # sorted by robots
+    assert list(pibt_run.get_ydata()) == [3.6, 6.7]
+    assert list(guided_last.get_ydata()) == [4.5, 9.2]
+    assert list(guided_run.get_ydata()) == [3.8, 7.7]
+    assert [text.get_text() for text in ax.get_legend().get_texts()][1:] == [
+        "PIBT (last half)", "PIBT (whole run)", "guided PIBT (last half)",
+        "guided PIBT (whole run)"]  # fmt: skip
+    # The benchmark's JSON file gives the same figure; one without scaling runs is refused.
+    path = tmp_path / "planners.json"
+    path.write_text(json.dumps({"scaling": SCALING}))
+    assert list(planner_scaling_figure(path).axes[0].lines[2].get_ydata()) == [3.6, 6.7]
+    path.write_text(json.dumps({"scaling": None}))
+    with pytest.raises(ValueError, match="no scaling runs"):
+        planner_scaling_figure(path)

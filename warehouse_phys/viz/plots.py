@@ -10,6 +10,7 @@ because any is.
 
 from __future__ import annotations
 
+import json
 import os
 import textwrap
 from collections.abc import Mapping, Sequence
@@ -517,4 +518,44 @@ def throughput_by_robots_figure(
     ax.set_ylabel("deliveries per step")
     ax.set_title(title or "Throughput against fleet size")
     ax.legend(fontsize="small")
+    return figure
+
+
+#: Names the planners go by in figures.
+PLANNER_LABELS = {"pibt": "PIBT", "guided": "guided PIBT"}
+
+
+def planner_scaling_figure(scaling: Mapping[str, object] | str | os.PathLike[str]) -> Figure:
+    """Errands a step against robots, each planner's (over the whole run, dotted, and its
+    last half) beside the congestion-free ceiling (robots over the mean shortest distance
+    between consecutive errands, dashed): ``benchmarks/planners.py --scaling``'s results,
+    given as its ``"scaling"`` mapping or as the path of the JSON file it wrote.
+
+    Raises:
+        ValueError: if the file holds no scaling runs.
+    """
+    if not isinstance(scaling, Mapping):
+        scaling = json.loads(Path(scaling).read_text(encoding="utf-8")).get("scaling")
+        if not scaling:
+            raise ValueError("the file holds no scaling runs (benchmarks/planners.py --scaling)")
+    rows = list(scaling["rows"])
+    robots = sorted({row["robots"] for row in rows})
+    ceiling = {row["robots"]: row["ceiling"] for row in rows if row.get("ceiling") is not None}
+    figure = _figure((6.4, 4.2))
+    ax = figure.add_subplot()
+    ax.plot([n for n in robots if n in ceiling], [ceiling[n] for n in robots if n in ceiling],
+            "k--", marker="o", label="congestion-free ceiling")  # fmt: skip
+    for name in dict.fromkeys(row["planner"] for row in rows):
+        mine = sorted((row for row in rows if row["planner"] == name), key=lambda r: r["robots"])
+        label = PLANNER_LABELS.get(name, name)
+        sizes = [row["robots"] for row in mine]
+        (line,) = ax.plot(sizes, [row["errands_per_step_last_half"] for row in mine],
+                          marker="o", label=f"{label} (last half)")  # fmt: skip
+        ax.plot(sizes, [row["errands_per_step"] for row in mine], marker=".", linestyle=":",
+                color=line.get_color(), label=f"{label} (whole run)")  # fmt: skip
+    ax.set_xlabel("robots")
+    ax.set_ylabel("errands a step")
+    ax.set_title(f"{scaling['layout']}, lifelong, {scaling['steps']} steps, seed 0")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
     return figure
