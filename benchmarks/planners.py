@@ -9,6 +9,8 @@ Three measurements, one core (numpy's threads held to one), CPU time (``time.pro
   errands' distance maps and, guided, every robot's first guide path), the median and
   slowest later step, guide-path searches a step, robots the time limit left unguided,
   peak resident memory. ``--moves rotate``: turning robots (LoRR's own model).
+  ``--instance PATH`` plays another LoRR instance instead (2024 ``WAREHOUSE.json``:
+  its two-stop tasks through the built-in scheduler, counted as tasks a step too).
 - **kiva-33-46** (POGEMA's lifelong setting: 256 steps, seeds 0-4) at 32 to 256 robots:
   deliveries a step, the mean over the seeds, the planners interleaved seed by seed on
   the same fleet; the median CPU time of a plan. Published at 128 robots: RHCR 3.49; at
@@ -26,7 +28,8 @@ Planners are named as :data:`warehouse_phys.rl.fleet_planners.PLANNERS`: ``pibt`
 distances with the guide paths' traffic as a tie-break).
 
     python benchmarks/planners.py [--steps 5000] [--planners pibt,guided]
-        [--skip-lorr] [--skip-kiva] [--moves grid|rotate] [--time-limit S] [--json PATH]
+        [--skip-lorr] [--skip-kiva] [--moves grid|rotate] [--instance PATH]
+        [--time-limit S] [--json PATH]
         [--scaling] [--scaling-steps 500] [--plot PATH] [--quick]
 """
 
@@ -52,7 +55,7 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 from warehouse_phys.envs import lorr
 from warehouse_phys.envs.fleet import parallel_env
-from warehouse_phys.files.atomic import atomic_write, atomic_write_text
+from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
@@ -107,6 +110,7 @@ def lorr_run(
         "robots": env.num_robots,
         "steps": steps,
         "errands_per_step": env.errands.errands_done / steps,
+        "tasks_per_step": env.errands.tasks_done / steps,
         "errands_per_step_last": (done_at[-1] - (done_at[-last - 1] if last < steps else 0)) / last,
         "last_steps": last,
         "refused": refused,
@@ -129,7 +133,8 @@ def describe_lorr(run: dict[str, object]) -> str:
         f"{run['planner']:<13} "
         f"{run['steps']:>5} steps: "
         f"{run['errands_per_step']:6.2f} errands/step ({run['errands_per_step_last']:.2f} over "
-        f"the last {run['last_steps']}), {run['refused']} refused; first step "
+        f"the last {run['last_steps']}), {run.get('tasks_per_step', 0):.2f} tasks/step, "
+        f"{run['refused']} refused; first step "
         f"{run['first_step_s']:.1f} s, then {run['step_s_median'] * 1000:.0f} ms/step (max "
         f"{run['step_s_max'] * 1000:.0f}){guided}; peak {run['peak_rss_mib']:,.0f} MiB"
     )
@@ -248,38 +253,11 @@ def scaling_table(
 
 
 def scaling_plot(scaling: dict[str, object], path: Path) -> None:
-    """Errands a step against robots, each planner and the ceiling; PNG at ``path``."""
-    import io
+    """Errands a step against robots, each planner and the ceiling; PNG at ``path``
+    (:func:`warehouse_phys.viz.plots.planner_scaling_figure`)."""
+    from warehouse_phys.viz.plots import planner_scaling_figure, save_figure
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    rows = scaling["rows"]
-    robots = sorted({row["robots"] for row in rows})
-    ceiling = [next(r["ceiling"] for r in rows if r["robots"] == n) for n in robots]
-    ceiling = [float("nan") if value is None else value for value in ceiling]
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
-    ax.plot(robots, ceiling, "k--", marker="o", label="congestion-free ceiling")
-    for name in dict.fromkeys(row["planner"] for row in rows):
-        mine = [r for r in rows if r["planner"] == name]
-        label = "guided PIBT" if name == "guided" else "PIBT" if name == "pibt" else name
-        ax.plot([r["robots"] for r in mine], [r["errands_per_step_last_half"] for r in mine],
-                marker="o", label=f"{label} (last half)")  # fmt: skip
-        ax.plot([r["robots"] for r in mine], [r["errands_per_step"] for r in mine],
-                marker=".", linestyle=":", color=ax.lines[-1].get_color(),
-                label=f"{label} (whole run)")  # fmt: skip
-    ax.set_xlabel("robots")
-    ax.set_ylabel("errands a step")
-    ax.set_title(f"{scaling['layout']}, lifelong, {scaling['steps']} steps, seed 0")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    plt.close(fig)
-    atomic_write(path, lambda out: out.write(buffer.getvalue()))
+    save_figure(planner_scaling_figure(scaling), path)
 
 
 def main(argv: list[str] | None = None) -> dict[str, object]:
@@ -289,6 +267,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     parser.add_argument("--planners", default="pibt,guided", help=f"of {','.join(PLANNERS)}")
     parser.add_argument("--time-limit", type=float, help="the guidance's seconds a step")
     parser.add_argument("--skip-lorr", action="store_true", help="no MR23-I-10 runs")
+    parser.add_argument("--instance", type=Path, default=MR23,
+                        help="the LoRR instance of those runs (MR23-I-10)")  # fmt: skip
     parser.add_argument("--skip-kiva", action="store_true", help="no kiva-33-46 table")
     parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke test")
     parser.add_argument("--moves", default="grid", choices=("grid", "rotate"),
@@ -305,25 +285,27 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         parser.error(f"unknown planners {unknown}; known: {list(PLANNERS)}")
     steps = 3 if args.quick else args.steps
     if args.one is not None:
-        instance = EI23_200 if args.quick else MR23
+        instance = EI23_200 if args.quick else args.instance
         run = lorr_run(args.one, steps, args.window, args.time_limit, instance, args.moves)
         print(json.dumps(run))
         return {}
     print(f"CPU time, one core; Python {platform.python_version()}, {os.cpu_count()} CPUs",
           flush=True)  # fmt: skip
     runs = []
-    if not args.skip_lorr and not MR23.exists():
-        print(f"MR23-I-10: skipped, {MR23} is absent")
+    if not args.skip_lorr and not args.instance.exists():
+        print(f"{args.instance.stem}: skipped, {args.instance} is absent")
     elif not args.skip_lorr:
         for name in planners:
             command = [sys.executable, __file__, "--one", name, "--steps", str(steps),
-                       "--window", str(args.window), "--moves", args.moves]  # fmt: skip
+                       "--window", str(args.window), "--moves", args.moves,
+                       "--instance", str(args.instance)]  # fmt: skip
             command += ["--quick"] if args.quick else []
             if args.time_limit is not None:
                 command += ["--time-limit", str(args.time_limit)]
             done = subprocess.run(command, capture_output=True, text=True, check=False)
             if done.returncode != 0:
-                print(f"MR23-I-10 {name}: failed: {done.stderr.strip().splitlines()[-1:]}")
+                print(f"{args.instance.stem} {name}: failed: "
+                      f"{done.stderr.strip().splitlines()[-1:]}")  # fmt: skip
                 continue
             runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
             print(describe_lorr(runs[-1]), flush=True)
