@@ -19,6 +19,7 @@ from warehouse_phys.rl.fleet_planners import guided_pibt_policy, planner_policy
 from warehouse_phys.rules import graph_search
 from warehouse_phys.rules.grid import WarehouseGrid
 from warehouse_phys.rules.guidance import GuidanceConfig, GuidedPIBT, TrafficGuidance
+from warehouse_phys.rules.headings import resolve_turning_moves
 from warehouse_phys.rules.planning import PIBT
 from warehouse_phys.rules.traffic import moves_refused_by_floor, resolve_moves
 
@@ -216,6 +217,34 @@ def test_golden_plans_on_the_two_aisle_floor():
         assert not refused.any()
         seen.append(actions.tolist())
     assert seen == GOLDEN_TWO_AISLES
+
+
+def test_golden_turning_plans_on_the_two_aisle_floor():
+    """The same four robots turning to drive, facing their way: each pair drives its
+    own aisle without a turn; at the left, robot_3, on its goal, turns north and yields
+    up the left column and on along the top, so that robot_2 reaches its goal at the top
+    left."""
+    grid = WarehouseGrid.from_layout(TWO_AISLES)
+    cells = np.array([(0, 0), (0, 1), (2, 7), (2, 6)])
+    goals = np.array([(0, 7), (2, 7), (0, 0), (2, 0)])
+    headings = np.array([0, 0, 2, 2])  # east, east, west, west
+    planner = GuidedPIBT(grid, seed=0, moves="rotate")
+    seen = []
+    for _ in range(11):
+        actions = planner.plan(cells, goals, headings=headings)
+        cells, headings, refused = resolve_turning_moves(grid, cells, headings, actions)
+        assert not refused.any()
+        seen.append(actions.tolist())
+    assert seen == GOLDEN_TURNING_TWO_AISLES
+    assert cells.tolist() == [[0, 7], [2, 7], [0, 0], [0, 1]]
+
+
+#: The actions of :func:`test_golden_turning_plans_on_the_two_aisle_floor` (0 forward,
+#: 1 clockwise, 2 counter-clockwise, 3 wait), step by step.
+GOLDEN_TURNING_TWO_AISLES = [
+    [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0],
+    [3, 1, 3, 1], [0, 0, 0, 0], [3, 0, 1, 0], [3, 3, 0, 1], [3, 3, 0, 0],
+]  # fmt: skip
 
 
 #: The plans of :func:`test_golden_plans_on_the_two_aisle_floor`, step by step.
