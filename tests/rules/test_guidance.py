@@ -295,3 +295,11 @@ def test_a_facing_that_is_not_one_move_a_robot_is_refused_and_nothing_changes(fa
     assert not guidance.flow.any()
     guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=np.array([2]))
     assert guidance.flow.sum() == 7
+
+
+@pytest.mark.parametrize("headings", [None, np.array([0, 4]), np.array([0, -1]), np.array([1])])
+def test_turning_robots_without_one_heading_0_to_3_each_are_refused(headings):
+    grid = WarehouseGrid.from_layout(TWO_AISLES)
+    planner = GuidedPIBT(grid, moves="rotate")
+    with pytest.raises(ValueError, match="heading"):
+        planner.plan(np.array([(0, 0), (2, 7)]), np.array([(0, 7), (2, 0)]), headings=headings)

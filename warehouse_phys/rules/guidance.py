@@ -381,7 +381,12 @@ class GuidedPIBT:
         headings: np.ndarray | None = None,
     ) -> np.ndarray:
         """The next joint action, as :meth:`PIBT.plan
-        <warehouse_phys.rules.planning.PIBT.plan>` (``(N,)`` int64), guided."""
+        <warehouse_phys.rules.planning.PIBT.plan>` (``(N,)`` int64), guided.
+
+        Raises:
+            ValueError: as :meth:`PIBT.plan <warehouse_phys.rules.planning.PIBT.plan>`,
+                and if turning robots' ``headings`` are not one of 0..3 each.
+        """
         cols = self.pibt.grid.cols
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
         goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
@@ -389,7 +394,13 @@ class GuidedPIBT:
         present = np.ones(n, dtype=bool) if present is None else np.asarray(present, bool)
         movable = present.copy() if movable is None else np.asarray(movable, bool) & present
         here = cells[:, 0] * cols + cells[:, 1]
-        facing = None if headings is None else HEADING_MOVES[np.asarray(headings, np.int64)]
+        facing = None
+        if self.pibt.turning and headings is not None:
+            headings = np.asarray(headings)
+            if headings.shape != (n,) or not np.isin(headings, np.arange(4)).all():
+                raise ValueError(f"turning robots need one heading 0..3 each ({n}), got "
+                                 f"{headings!r}")  # fmt: skip
+            facing = HEADING_MOVES[headings.astype(np.int64)]
         values = self.guidance.update(here, goals[:, 0] * cols + goals[:, 1], movable,
                                       self.pibt.distances, here[present & ~movable],
                                       facing)  # fmt: skip
