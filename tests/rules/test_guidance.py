@@ -4,6 +4,7 @@ deterministic and bounded, and it steers robots apart where plain PIBT meets hea
 import hashlib
 import itertools
 import json
+import math
 import subprocess
 import sys
 
@@ -140,6 +141,24 @@ def test_a_tiny_time_limit_still_gives_safe_moves_and_counts_who_it_left_unguide
         assert sum(info["refused"] for info in infos.values()) == 0
     assert left[0] > 0  # 300 searches do not fit in 0.1 ms
     assert planner.guidance.searches < 300
+
+
+def test_the_first_step_can_have_a_bound_of_its_own():
+    """``first_time_limit=inf``: the first step searches every robot's first guide path,
+    however small ``time_limit`` is; the later steps keep to ``time_limit``."""
+    env = fleet.parallel_env(num_robots=300, layout="warehouse", lifelong=True, max_cycles=30)
+    config = GuidanceConfig(time_limit=1e-4, first_time_limit=math.inf)
+    planner = GuidedPIBT(env.grid, distances=env.distances, config=config)
+    env.reset(seed=0)
+    searches, left = [], []
+    for _ in range(30):
+        actions = planner.plan(env.robot_cells, env.package_cells)
+        searches.append(planner.guidance.searches)
+        left.append(planner.guidance.timed_out)
+        _, _, _, _, infos = env.step(dict(zip(env.agents, actions.tolist(), strict=True)))
+        assert sum(info["refused"] for info in infos.values()) == 0
+    assert (searches[0], left[0]) == (300, 0)
+    assert max(searches[1:]) < 300
 
 
 def test_guided_runs_are_the_same_in_another_process():
@@ -279,7 +298,7 @@ def test_candidate_values_of_nan_leave_pibt_as_it_was():
 @pytest.mark.parametrize(
     "bad",
     [{"vertex_weight": -1}, {"heuristic_weight": 0.5}, {"window": 0}, {"max_searches": -1},
-     {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}],
+     {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}, {"first_time_limit": -1}],
 )  # fmt: skip
 def test_nonsense_guidance_is_refused(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):

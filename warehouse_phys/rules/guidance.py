@@ -28,7 +28,9 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   on big fleets).
 - Bounded work: at most ``max_searches`` searches and ``time_limit`` seconds of guidance
   a step; robots left without a guide path are valued by PIBT's own distances (``NaN``
-  values), so a step is always PIBT's, and every plan traffic grants.
+  values), so a step is always PIBT's, and every plan traffic grants. The first step,
+  when every robot needs its first guide path, can have a bound of its own
+  (``first_time_limit``; ``math.inf`` for none).
 
 :class:`GuidedPIBT` is the planner: this guidance in front of PIBT's one-step resolution
 (the same :class:`~warehouse_phys.rules.planning.PIBT`, through its ``candidate_values``).
@@ -79,6 +81,11 @@ class GuidanceConfig:
     #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
     #: each: the robots left get PIBT's distances (and the run may differ between runs).
     time_limit: float | None = None
+    #: The first step's own bound [s] (``math.inf``: none), when every robot needs its
+    #: first guide path (None: ``time_limit`` bounds it too). At 10,000 robots a step's
+    #: ``time_limit`` cannot hold the first step's 10,000 searches, and the robots it
+    #: leaves unguided become a backlog that later steps never clear.
+    first_time_limit: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("vertex_weight", "contraflow_weight"):
@@ -92,8 +99,10 @@ class GuidanceConfig:
             raise ValueError(f"refresh must be >= 0 and window >= 1, got {self!r}")
         if self.max_searches is not None and self.max_searches < 0:
             raise ValueError(f"max_searches must be >= 0 or None, got {self.max_searches!r}")
-        if self.time_limit is not None and not self.time_limit >= 0:
-            raise ValueError(f"time_limit must be >= 0 or None, got {self.time_limit!r}")
+        for name in ("time_limit", "first_time_limit"):
+            value = getattr(self, name)
+            if value is not None and not value >= 0:
+                raise ValueError(f"{name} must be >= 0 or None, got {value!r}")
 
 
 @dataclass
@@ -151,6 +160,7 @@ class TrafficGuidance:
         self._generation = 0
         self._paths = _Paths.empty(0)
         self._turn = 0  # the next robot whose guide path is refreshed
+        self._first = True  # no step planned yet: first_time_limit bounds the next
         #: Guide-path searches made in the last step, and robots left unguided because
         #: the step's time ran out.
         self.searches = 0
@@ -191,8 +201,11 @@ class TrafficGuidance:
                 raise ValueError("a new fleet needs a new TrafficGuidance")
             self._paths = _Paths.empty(len(here))
         self._hold(np.sort(np.asarray([] if held is None else held, dtype=np.int64)))
-        deadline = None if self.config.time_limit is None else (
-            time.perf_counter() + self.config.time_limit)  # fmt: skip
+        limit = self.config.time_limit
+        if self._first and self.config.first_time_limit is not None:
+            limit = self.config.first_time_limit
+        self._first = False
+        deadline = None if limit is None else time.perf_counter() + limit
         paths = self._paths
         dropped = (paths.goal != goal) | ~active | (self._column[goal] < 0)
         self._drop(np.flatnonzero(dropped & (paths.moves >= 0)))
