@@ -10,7 +10,8 @@ Three measurements, one core (numpy's threads held to one), CPU time (``time.pro
   slowest later step, guide-path searches a step, robots the time limit left unguided,
   peak resident memory. ``--moves rotate``: turning robots (LoRR's own model).
   ``--instance PATH`` plays another LoRR instance instead (2024 ``WAREHOUSE.json``:
-  its two-stop tasks through the built-in scheduler, counted as tasks a step too).
+  its two-stop tasks through the built-in scheduler, counted as tasks a step too;
+  ``--scheduler makespan`` weighs each task's own length, as the default entry does).
 - **kiva-33-46** (POGEMA's lifelong setting: 256 steps, seeds 0-4) at 32 to 256 robots:
   deliveries a step, the mean over the seeds, the planners interleaved seed by seed on
   the same fleet; the median CPU time of a plan. Published at 128 robots: RHCR 3.49; at
@@ -29,7 +30,7 @@ distances with the guide paths' traffic as a tie-break).
 
     python benchmarks/planners.py [--steps 5000] [--planners pibt,guided]
         [--skip-lorr] [--skip-kiva] [--moves grid|rotate] [--instance PATH]
-        [--time-limit S] [--json PATH]
+        [--scheduler nearest|makespan] [--time-limit S] [--json PATH]
         [--scaling] [--scaling-steps 500] [--plot PATH] [--quick]
 """
 
@@ -57,6 +58,7 @@ from warehouse_phys.envs import lorr
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
+from warehouse_phys.rules.scheduling import SCHEDULERS, scheduler_named
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 MR23 = SHARED / "lorr" / "2023-main-warehouse" / "MR23-I-10.json"
@@ -83,9 +85,12 @@ def lorr_run(
     time_limit: float | None,
     instance: Path = MR23,
     moves: str = "grid",
+    scheduler: str | None = None,
 ) -> dict[str, object]:
-    """One planner on ``instance`` (MR23-I-10) in this process; its figures."""
-    env = lorr.fleet(instance, moves=moves, max_cycles=steps)
+    """One planner on ``instance`` (MR23-I-10) in this process; its figures. ``scheduler``
+    names a built-in scheduler for a 2024 instance (None: the fleet's default)."""
+    chosen = {} if scheduler is None else {"scheduler": scheduler_named(scheduler)}
+    env = lorr.fleet(instance, moves=moves, max_cycles=steps, **chosen)
     policy = planner_policy(name, seed=0, **guidance_of(name, time_limit))
     gc.freeze()  # as simulate does: the floor's objects leave Python's full collections
     observations, infos = env.reset(seed=0)
@@ -107,6 +112,7 @@ def lorr_run(
         "planner": name,
         "instance": env.instance.name,
         "moves": moves,
+        "scheduler": scheduler,
         "robots": env.num_robots,
         "steps": steps,
         "errands_per_step": env.errands.errands_done / steps,
@@ -130,7 +136,8 @@ def describe_lorr(run: dict[str, object]) -> str:
         f", {searches:.0f} searches/step, {run['unguided']} robot-steps left unguided")  # fmt: skip
     return (
         f"{run['instance']} {run.get('moves', 'grid')} {run['robots']:>6,} robots "
-        f"{run['planner']:<13} "
+        + (f"(scheduler {run['scheduler']}) " if run.get("scheduler") else "")
+        + f"{run['planner']:<13} "
         f"{run['steps']:>5} steps: "
         f"{run['errands_per_step']:6.2f} errands/step ({run['errands_per_step_last']:.2f} over "
         f"the last {run['last_steps']}), {run.get('tasks_per_step', 0):.2f} tasks/step, "
@@ -269,6 +276,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     parser.add_argument("--skip-lorr", action="store_true", help="no MR23-I-10 runs")
     parser.add_argument("--instance", type=Path, default=MR23,
                         help="the LoRR instance of those runs (MR23-I-10)")  # fmt: skip
+    parser.add_argument("--scheduler", choices=tuple(SCHEDULERS),
+                        help="a 2024 instance's scheduler (the fleet's default)")  # fmt: skip
     parser.add_argument("--skip-kiva", action="store_true", help="no kiva-33-46 table")
     parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke test")
     parser.add_argument("--moves", default="grid", choices=("grid", "rotate"),
@@ -286,7 +295,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     steps = 3 if args.quick else args.steps
     if args.one is not None:
         instance = EI23_200 if args.quick else args.instance
-        run = lorr_run(args.one, steps, args.window, args.time_limit, instance, args.moves)
+        run = lorr_run(args.one, steps, args.window, args.time_limit, instance, args.moves,
+                       args.scheduler)  # fmt: skip
         print(json.dumps(run))
         return {}
     print(f"CPU time, one core; Python {platform.python_version()}, {os.cpu_count()} CPUs",
@@ -300,6 +310,7 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
                        "--window", str(args.window), "--moves", args.moves,
                        "--instance", str(args.instance)]  # fmt: skip
             command += ["--quick"] if args.quick else []
+            command += [] if args.scheduler is None else ["--scheduler", args.scheduler]
             if args.time_limit is not None:
                 command += ["--time-limit", str(args.time_limit)]
             done = subprocess.run(command, capture_output=True, text=True, check=False)

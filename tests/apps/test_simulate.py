@@ -287,6 +287,21 @@ def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_
     assert replay(output, grid).conflicts == []
 
 
+def test_the_scheduler_is_chosen_by_name_and_only_for_an_instance(tmp_path, capsys):
+    from tests.envs.test_fleet_instances import small_instance
+    from warehouse_phys.apps.simulate import _setup, build_parser
+    from warehouse_phys.rules.instances import write_instance
+    from warehouse_phys.rules.scheduling import least_makespan, nearest_free_robot
+
+    path = write_instance(small_instance("scheduler", robots=4), tmp_path / "w.json")
+    for argv, chosen in (([], nearest_free_robot), (["--scheduler", "makespan"], least_makespan)):
+        env, _ = _setup(build_parser().parse_args(["--instance", str(path), *argv]))
+        assert env.errands.scheduler is chosen
+    assert main(["--scheduler", "makespan", "--out", str(tmp_path / "r")]) == 2
+    assert "--scheduler hands out an instance's tasks: give --instance" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
 def test_what_a_run_does_not_model_is_said_in_its_output_and_summary(tmp_path, capsys):
     """A 2026 instance runs on its ticks and delays (tests/apps/test_simulate_async.py);
     what that run does not model (turning robots, LoRR's square robots) is said in the
@@ -330,6 +345,9 @@ def test_what_a_run_does_not_model_is_said_in_its_output_and_summary(tmp_path, c
                                  "do not give --layout"),
         (["--robots", "3"], "do not give --robots"),
         (["--moves", "hop"], "invalid choice: 'hop'"),
+        (["--scheduler", "makespan"], "--scheduler: x assigns its tasks 'roundrobin' (LoRR "
+                                      "2023), without a scheduler"),
+        (["--scheduler", "fastest"], "invalid choice: 'fastest'"),
     ],
 )  # fmt: skip
 def test_bad_instance_arguments_end_in_one_line(tmp_path, capsys, argv, message):

@@ -13,10 +13,16 @@ from warehouse_phys.rules.errands import (
     RoundRobinErrands,
     ScheduledTasks,
     errand_list,
+    task_lengths,
 )
 from warehouse_phys.rules.grid import WarehouseGrid
 from warehouse_phys.rules.instances import LorrInstance
-from warehouse_phys.rules.scheduling import nearest_free_robot, schedule_checked
+from warehouse_phys.rules.scheduling import (
+    least_makespan,
+    nearest_free_robot,
+    schedule_checked,
+    scheduler_named,
+)
 
 GRID = WarehouseGrid(6, 7)
 
@@ -163,3 +169,71 @@ def brute_force_nearest(robot_cells, task_cells, cols):
 def test_the_nearest_pairing_is_the_greedy_nearest_matching(robots, tasks):
     choice = nearest_free_robot(np.array(robots, dtype=np.int64), np.array(tasks, np.int64), 10)
     assert choice.tolist() == brute_force_nearest(robots, tasks, 10)
+
+
+def brute_force_least_makespan(robot_cells, task_cells, lengths, cols):
+    """Pair the robot and task of least makespan (Manhattan to the first stop plus the
+    task's length), ties to the lower robot then the earlier task, until one side runs out."""
+    choice = [-1] * len(robot_cells)
+    pairs = sorted(
+        (abs(r // cols - t // cols) + abs(r % cols - t % cols) + lengths[j], i, j)
+        for (i, r), (j, t) in itertools.product(enumerate(robot_cells), enumerate(task_cells))
+    )
+    used = set()
+    for _, i, j in pairs:
+        if choice[i] < 0 and j not in used:
+            choice[i] = j
+            used.add(j)
+    return choice
+
+
+@settings(max_examples=200)
+@given(robots=st.lists(st.integers(0, 99), max_size=20),
+       tasks=st.lists(st.tuples(st.integers(0, 99), st.integers(0, 30)), max_size=20))  # fmt: skip
+@example(robots=[0] * 7, tasks=[(0, 0)] * 5 + [(29, 0), (29, 3), (92, 1), (0, 2)])
+def test_the_makespan_pairing_is_the_greedy_least_makespan_matching(robots, tasks):
+    cells = np.array([t for t, _ in tasks], dtype=np.int64)
+    lengths = np.array([length for _, length in tasks], dtype=np.int64)
+    choice = least_makespan(np.array(robots, dtype=np.int64), cells, 10, task_lengths=lengths)
+    assert choice.tolist() == brute_force_least_makespan(robots, cells.tolist(), lengths, 10)
+    # Without lengths it is the nearest pairing.
+    plain = least_makespan(np.array(robots, dtype=np.int64), cells, 10)
+    assert plain.tolist() == nearest_free_robot(np.array(robots, np.int64), cells, 10).tolist()
+
+
+def test_a_shorter_task_goes_first_by_makespan_and_bad_lengths_are_refused():
+    # One robot on cell 0; the nearer task is long, the farther one short.
+    robots, tasks = np.array([0]), np.array([1, 3])
+    assert nearest_free_robot(robots, tasks, 7).tolist() == [0]
+    assert least_makespan(robots, tasks, 7, task_lengths=np.array([10, 2])).tolist() == [1]
+    for bad in (np.array([1]), np.array([1, -1]), np.array([1.0, 2.0])):
+        with pytest.raises(ValueError, match="task_lengths must be one integer >= 0"):
+            least_makespan(robots, tasks, 7, task_lengths=bad)
+    assert scheduler_named("makespan") is least_makespan
+    with pytest.raises(ValueError, match="unknown scheduler 'fastest'; known: nearest, makespan"):
+        scheduler_named("fastest")
+
+
+def test_task_lengths_are_the_manhattan_legs_between_a_tasks_stops():
+    # On the 6 x 7 floor: 8 = (1, 1), 20 = (2, 6), 0 = (0, 0), 41 = (5, 6).
+    tasks = [[8, 20], [0], [41, 0, 8]]
+    assert task_lengths(instance(tasks, assignment="scheduler")).tolist() == [6, 0, 13]
+
+
+def test_the_errand_list_gives_task_lengths_to_a_scheduler_that_takes_them():
+    seen = []
+
+    def with_lengths(robot_cells, task_cells, cols, *, task_lengths):
+        seen.append(task_lengths.tolist())
+        return least_makespan(robot_cells, task_cells, cols, task_lengths=task_lengths)
+
+    # Robot 0 on cell 0: task 0 is nearer (cell 1) but long; task 1 (cell 3) short.
+    tasks = [[1, 41], [3, 4], [5, 12]]
+    errands = errand_list(instance(tasks, robots=1, assignment="scheduler", reveal=3),
+                          scheduler=with_lengths)  # fmt: skip
+    errands.reset(np.array([0]))
+    assert seen == [[10, 1, 1]]
+    assert errands.goals.tolist() == [3]
+    nearest = errand_list(instance(tasks, robots=1, assignment="scheduler", reveal=3))
+    nearest.reset(np.array([0]))
+    assert nearest.goals.tolist() == [1]

@@ -87,9 +87,10 @@ from warehouse_phys.rl.fleet_evaluation import (
     worse_policies,
 )
 from warehouse_phys.rules.headings import MOVE_MODELS
-from warehouse_phys.rules.instances import PUBLISHED_FIGURES, read_instance
+from warehouse_phys.rules.instances import PUBLISHED_FIGURES, SCHEDULED, read_instance
 from warehouse_phys.rules.layouts import FLEET_PRESETS, PRESETS
 from warehouse_phys.rules.lorr_output import RunRecord, actual_actions, write_output
+from warehouse_phys.rules.scheduling import SCHEDULERS
 
 PROG = "python -m warehouse_phys.simulate"
 POLICIES = ("pibt", "guided", "shortest", "random")
@@ -516,6 +517,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--moves", choices=MOVE_MODELS, default="grid",
         help="grid: four directions (default); rotate: robots turn in place and drive forward",
     )  # fmt: skip
+    parser.add_argument(
+        "--scheduler", choices=tuple(SCHEDULERS),
+        help="which free robot takes which task, on a 2024 or later instance: nearest (the "
+        "first stop nearest the robot, default) or makespan (the least distance to the first "
+        "stop plus the task's own length, as the competition's default entry)",
+    )  # fmt: skip
     parser.add_argument("--rows", type=bounded_int(2, "at least 2 rows"), help="empty floor rows")
     parser.add_argument("--cols", type=bounded_int(2, "at least 2 columns"), help="columns")
     parser.add_argument(
@@ -629,6 +636,8 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
 
     if args.layout is not None and (args.rows is not None or args.cols is not None):
         raise UsageError("give --layout or --rows/--cols, not both")
+    if args.scheduler is not None and args.instance is None:
+        raise UsageError("--scheduler hands out an instance's tasks: give --instance")
     instance = None
     if args.instance is not None:
         given = [flag for flag, value in (("--layout", args.layout), ("--rows", args.rows),
@@ -642,6 +651,13 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
         except (ValueError, TypeError, OSError) as error:
             raise UsageError(str(error).splitlines()[0]) from None
         floor: dict[str, Any] = {"instance": instance, "record_errands": True}
+        if args.scheduler is not None and instance.assignment != SCHEDULED:
+            raise UsageError(
+                f"--scheduler: {instance.name} assigns its tasks {instance.assignment!r} "
+                "(LoRR 2023), without a scheduler"
+            )
+        if args.scheduler is not None:
+            floor["scheduler"] = SCHEDULERS[args.scheduler]
     elif args.layout is None:
         floor = {"grid_rows": args.rows or 4, "grid_cols": args.cols or 5}
     else:

@@ -35,7 +35,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from warehouse_phys.rules.instances import SCHEDULED, LorrInstance
-from warehouse_phys.rules.scheduling import Scheduler, nearest_free_robot, schedule_checked
+from warehouse_phys.rules.scheduling import (
+    Scheduler,
+    nearest_free_robot,
+    schedule_checked,
+    takes_task_lengths,
+)
 
 #: The goal of a robot without an errand.
 NO_ERRAND = -1
@@ -221,6 +226,9 @@ class ScheduledTasks(ErrandList):
         self.open_robots = np.full(open_tasks, -1, dtype=np.int64)
         #: Each robot's slot among the open tasks, -1 for a free robot.
         self._slot = np.full(instance.team_size, -1, dtype=np.int64)
+        #: Each task line's length from its first stop to its last [moves, Manhattan],
+        #: for a scheduler that weighs it (``task_lengths``), else None.
+        self._lengths = task_lengths(instance) if takes_task_lengths(self.scheduler) else None
 
     def _restart(self) -> None:
         self.open_ids[:] = np.arange(len(self.open_ids))
@@ -246,12 +254,28 @@ class ScheduledTasks(ErrandList):
             return
         lines = self.open_ids[slots] % self.instance.num_tasks
         firsts = self.instance.task_stops[self.instance.task_offsets[lines]]
-        chosen = schedule_checked(self.scheduler, here[free], firsts, self.instance.grid.cols)
+        lengths = None if self._lengths is None else self._lengths[lines]
+        chosen = schedule_checked(self.scheduler, here[free], firsts, self.instance.grid.cols,
+                                  lengths)  # fmt: skip
         taking = chosen >= 0
         robots, slots = free[taking], slots[chosen[taking]]
         self._slot[robots] = slots
         self.open_robots[slots] = robots
         self._give(robots, self.open_ids[slots], self.open_ids[slots] % self.instance.num_tasks)
+
+
+def task_lengths(instance: LorrInstance) -> np.ndarray:
+    """``(tasks,)`` int64: each task's length from its first stop to its last, the
+    Manhattan distances between its consecutive stops summed [moves]."""
+    stops, cols = instance.task_stops, instance.grid.cols
+    rows, columns = np.divmod(stops, cols)
+    legs = np.abs(np.diff(rows)) + np.abs(np.diff(columns))
+    # A leg joins two stops of one task unless the second is a task's first stop.
+    within = np.ones(len(legs), dtype=bool)
+    firsts = instance.task_offsets[1:-1]
+    within[firsts[firsts > 0] - 1] = False
+    totals = np.concatenate([[0], np.cumsum(np.where(within, legs, 0))])
+    return totals[instance.task_offsets[1:] - 1] - totals[instance.task_offsets[:-1]]
 
 
 def errand_list(
