@@ -12,6 +12,9 @@ Three measurements, one core (numpy's threads held to one), CPU time (``time.pro
   ``--instance PATH`` plays another LoRR instance instead (2024 ``WAREHOUSE.json``:
   its two-stop tasks through the built-in scheduler, counted as tasks a step too;
   ``--scheduler makespan`` weighs each task's own length, as the default entry does).
+  Beside them, the instance's congestion-free flow
+  (:mod:`warehouse_phys.rules.task_flow`): what its errand list and scheduler would
+  finish if robots never met, so a planner's figure says how much traffic took.
 - **kiva-33-46** (POGEMA's lifelong setting: 256 steps, seeds 0-4) at 32 to 256 robots:
   deliveries a step, the mean over the seeds, the planners interleaved seed by seed on
   the same fleet; the median CPU time of a plan. Published at 128 robots: RHCR 3.49; at
@@ -58,7 +61,9 @@ from warehouse_phys.envs import lorr
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
+from warehouse_phys.rules.instances import read_instance
 from warehouse_phys.rules.scheduling import SCHEDULERS, scheduler_named
+from warehouse_phys.rules.task_flow import congestion_free_flow
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 MR23 = SHARED / "lorr" / "2023-main-warehouse" / "MR23-I-10.json"
@@ -127,6 +132,21 @@ def lorr_run(
         "searches_per_step": statistics.fmean(searches[1:] or searches) if searches else None,
         "unguided": unguided,
         "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }
+
+
+def flow_run(instance: Path, steps: int, scheduler: str | None) -> dict[str, object]:
+    """The congestion-free flow of ``instance`` (:mod:`warehouse_phys.rules.task_flow`):
+    what its errand list and scheduler would finish if robots never met."""
+    chosen = {} if scheduler is None else {"scheduler": scheduler_named(scheduler)}
+    loaded = read_instance(instance)
+    flow = congestion_free_flow(loaded, steps, **chosen)
+    return {
+        "instance": loaded.name,
+        "scheduler": scheduler,
+        "steps": steps,
+        "errands_per_step": flow.errands_per_step,
+        "tasks_per_step": flow.tasks_per_step,
     }
 
 
@@ -301,7 +321,9 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
         return {}
     print(f"CPU time, one core; Python {platform.python_version()}, {os.cpu_count()} CPUs",
           flush=True)  # fmt: skip
-    runs = []
+    runs, flow = [], None
+    if args.quick:
+        args.instance = EI23_200
     if not args.skip_lorr and not args.instance.exists():
         print(f"{args.instance.stem}: skipped, {args.instance} is absent")
     elif not args.skip_lorr:
@@ -320,6 +342,10 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
                 continue
             runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
             print(describe_lorr(runs[-1]), flush=True)
+        flow = flow_run(args.instance, steps, args.scheduler)
+        print(f"{flow['instance']} congestion-free flow (robots that never meet, Manhattan "
+              f"paths, no turns), {steps} steps: {flow['errands_per_step']:.2f} errands/step, "
+              f"{flow['tasks_per_step']:.2f} tasks/step", flush=True)  # fmt: skip
     table = []
     if not args.skip_kiva and not KIVA.exists():
         print(f"kiva-33-46: skipped, {KIVA} is absent")
@@ -337,7 +363,7 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
             scaling_plot(scaling, args.plot)
             print(f"wrote {args.plot}")
     summary = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "python": sys.version,
-               "timer": "time.process_time", "mr23": runs, "kiva": table,
+               "timer": "time.process_time", "mr23": runs, "flow": flow, "kiva": table,
                "published_kiva": PUBLISHED_KIVA, "scaling": scaling}  # fmt: skip
     if args.json is not None:
         atomic_write_text(args.json, json.dumps(summary, indent=2) + "\n")

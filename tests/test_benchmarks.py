@@ -223,8 +223,11 @@ def test_the_planners_benchmark_reports_guided_beside_plain_pibt(tmp_path):
         assert re.search(lorr_row, result.stdout)
         assert re.search(rf"kiva-33-46 +64 robots {name} .* deliveries/step .* 0 refused",
                          result.stdout)  # fmt: skip
+    assert re.search(r"EI23-warehouse_large_200 congestion-free flow .* 3 steps: "
+                     r"[\d.]+ errands/step", result.stdout)  # fmt: skip
     summary = json.loads((tmp_path / "planners.json").read_text())
     assert [run["planner"] for run in summary["mr23"]] == ["pibt", "guided"]
+    assert summary["flow"]["steps"] == 3
     assert summary["mr23"][1]["searches_per_step"] >= 0
     assert len(summary["kiva"]) == 4
     if (shared / "maps" / "warehouse-large-140-500.map").exists():
