@@ -33,7 +33,8 @@ distances with the guide paths' traffic as a tie-break).
 
     python benchmarks/planners.py [--steps 5000] [--planners pibt,guided]
         [--skip-lorr] [--skip-kiva] [--moves grid|rotate] [--instance PATH]
-        [--scheduler nearest|makespan] [--time-limit S] [--json PATH]
+        [--scheduler nearest|makespan] [--time-limit S] [--guidance JSON]
+        [--progress N] [--json PATH]
         [--scaling] [--scaling-steps 500] [--plot PATH] [--quick]
 """
 
@@ -79,8 +80,14 @@ KIVA_ROBOTS = (32, 64, 96, 128, 160, 192, 224, 256)
 PUBLISHED_KIVA = {128: {"RHCR": 3.49}, 192: {"Follower": 3.94, "RHCR": 1.57}}
 
 
+#: Guidance settings of every guided run (``--guidance JSON``: GuidanceConfig's fields).
+GUIDANCE: dict[str, object] = {}
+
+
 def guidance_of(name: str, time_limit: float | None) -> dict[str, object]:
-    return {"time_limit": time_limit} if name != "pibt" and time_limit is not None else {}
+    if name == "pibt":
+        return {}
+    return GUIDANCE | ({} if time_limit is None else {"time_limit": time_limit})
 
 
 def lorr_run(
@@ -91,9 +98,11 @@ def lorr_run(
     instance: Path = MR23,
     moves: str = "grid",
     scheduler: str | None = None,
+    progress: int = 0,
 ) -> dict[str, object]:
     """One planner on ``instance`` (MR23-I-10) in this process; its figures. ``scheduler``
-    names a built-in scheduler for a 2024 instance (None: the fleet's default)."""
+    names a built-in scheduler for a 2024 instance (None: the fleet's default); every
+    ``progress`` steps (0: never) the counts so far go to stderr."""
     chosen = {} if scheduler is None else {"scheduler": scheduler_named(scheduler)}
     env = lorr.fleet(instance, moves=moves, max_cycles=steps, **chosen)
     policy = planner_policy(name, seed=0, **guidance_of(name, time_limit))
@@ -107,6 +116,11 @@ def lorr_run(
         step_s.append(time.process_time() - begun)
         refused += sum(info["refused"] for info in infos.values())
         done_at.append(env.errands.errands_done)
+        if progress and len(done_at) % progress == 0:
+            print(f"{name} step {len(done_at)}: {done_at[-1] / len(done_at):.2f} errands/step, "
+                  f"{env.errands.tasks_done / len(done_at):.2f} tasks/step, median "
+                  f"{statistics.median(step_s[1:] or step_s) * 1000:.0f} ms/step",
+                  file=sys.stderr, flush=True)  # fmt: skip
         planner = getattr(policy, "planner", None)
         if planner is not None:
             searches.append(planner.guidance.searches)
@@ -306,6 +320,10 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     parser.add_argument("--scaling-steps", type=int, default=500, help="steps a scaling run")
     parser.add_argument("--plot", type=Path, help="draw the scaling runs to this PNG")
     parser.add_argument("--json", type=Path, help="write the results to this JSON file")
+    parser.add_argument("--progress", type=int, default=0,
+                        help="LoRR runs: counts so far every N steps (0: none)")  # fmt: skip
+    parser.add_argument("--guidance", type=json.loads, default={},
+                        help="guided runs' GuidanceConfig fields, as JSON")  # fmt: skip
     parser.add_argument("--one", help=argparse.SUPPRESS)  # an MR23-I-10 run in a fresh process
     args = parser.parse_args(argv)
     planners = args.planners.split(",")
@@ -313,10 +331,12 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     if unknown:
         parser.error(f"unknown planners {unknown}; known: {list(PLANNERS)}")
     steps = 3 if args.quick else args.steps
+    GUIDANCE.clear()
+    GUIDANCE.update(args.guidance)
     if args.one is not None:
         instance = EI23_200 if args.quick else args.instance
         run = lorr_run(args.one, steps, args.window, args.time_limit, instance, args.moves,
-                       args.scheduler)  # fmt: skip
+                       args.scheduler, args.progress)  # fmt: skip
         print(json.dumps(run))
         return {}
     print(f"CPU time, one core; Python {platform.python_version()}, {os.cpu_count()} CPUs",
@@ -333,12 +353,16 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
                        "--instance", str(args.instance)]  # fmt: skip
             command += ["--quick"] if args.quick else []
             command += [] if args.scheduler is None else ["--scheduler", args.scheduler]
+            command += ["--progress", str(args.progress)] if args.progress else []
+            command += ["--guidance", json.dumps(args.guidance)] if args.guidance else []
             if args.time_limit is not None:
                 command += ["--time-limit", str(args.time_limit)]
-            done = subprocess.run(command, capture_output=True, text=True, check=False)
+            # With progress, the run's stderr (its progress, or its error) goes straight on.
+            done = subprocess.run(command, stdout=subprocess.PIPE, text=True, check=False,
+                                  stderr=None if args.progress else subprocess.PIPE)  # fmt: skip
             if done.returncode != 0:
-                print(f"{args.instance.stem} {name}: failed: "
-                      f"{done.stderr.strip().splitlines()[-1:]}")  # fmt: skip
+                last = (done.stderr or "").strip().splitlines()[-1:]
+                print(f"{args.instance.stem} {name}: failed (exit {done.returncode}) {last}")
                 continue
             runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
             print(describe_lorr(runs[-1]), flush=True)
@@ -363,6 +387,7 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
             scaling_plot(scaling, args.plot)
             print(f"wrote {args.plot}")
     summary = {"created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "python": sys.version,
+               "guidance": args.guidance,
                "timer": "time.process_time", "mr23": runs, "flow": flow, "kiva": table,
                "published_kiva": PUBLISHED_KIVA, "scaling": scaling}  # fmt: skip
     if args.json is not None:

@@ -221,6 +221,27 @@ def test_a_turning_robots_guide_path_turns_as_little_as_it_can(facing):
         assert guide_path_turns(np.array([facing]), None) == (12, 2)
 
 
+@pytest.mark.parametrize(("weight", "turns_at_the_corner"), [(0.0, True), (1.0, False)])
+def test_a_turn_where_guide_paths_pass_is_priced_by_their_traffic(weight, turns_at_the_corner):
+    """A robot facing right across an open 5 x 5 floor turns once, at the top right
+    corner; with ten guide paths leaving that corner and ``turn_traffic_weight=1`` a turn
+    there costs 11, and the robot turns twice elsewhere instead (moves stay free of the
+    traffic: vertex and contraflow weights 0)."""
+    grid = WarehouseGrid.from_layout(["....."] * 5)
+    config = GuidanceConfig(vertex_weight=0.0, contraflow_weight=0.0,
+                            turn_traffic_weight=weight)  # fmt: skip
+    guidance = TrafficGuidance(grid, config)
+    guidance.flow[4, 1] = 10  # ten guide paths leave the corner (0, 4) downwards
+    guidance.update(np.array([0]), np.array([24]), np.ones(1, dtype=bool), facing=np.array([2]))
+    paths = guidance._paths
+    cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1].tolist()
+    assert len(cells) == 9  # a shortest path either way
+    moves = [graph_search._move_of(guidance._graph, a, b) for a, b in itertools.pairwise(cells)]
+    turned_at = [cells[j] for j in range(1, len(moves)) if moves[j] != moves[j - 1]]
+    assert (turned_at == [4]) == turns_at_the_corner
+    assert len(turned_at) == (1 if turns_at_the_corner else 2)
+
+
 def test_golden_plans_on_the_two_aisle_floor():
     """Four robots, two each way, over the two-aisle floor: the guided plans, recorded.
     The top aisle's robots go right and the bottom one's left, meeting nobody head-on;
@@ -298,7 +319,8 @@ def test_candidate_values_of_nan_leave_pibt_as_it_was():
 @pytest.mark.parametrize(
     "bad",
     [{"vertex_weight": -1}, {"heuristic_weight": 0.5}, {"window": 0}, {"max_searches": -1},
-     {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}, {"first_time_limit": -1}],
+     {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}, {"first_time_limit": -1},
+     {"turn_traffic_weight": -0.5}],
 )  # fmt: skip
 def test_nonsense_guidance_is_refused(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):

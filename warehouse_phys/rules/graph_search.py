@@ -354,7 +354,9 @@ def congestion_path(
     each quarter turn, counted along the search tree (a move other than the one into the
     cell turns once; back the way it came, twice): not the exact ``(cell, heading)``
     search, which measured 3.5 times the time for 0.4 % more errands, but of equally
-    priced paths it mostly finds one with fewer turns."""
+    priced paths it mostly finds one with fewer turns. A turn holds up the robots behind
+    it for a step, so with ``costs[4]`` (optional) a quarter turn at a cell costs
+    ``costs[3] * (1 + costs[4] * guide paths leaving the cell)``."""
     if source == goal:
         path[0] = source
         return 0
@@ -381,8 +383,14 @@ def congestion_path(
             return length
         g, depth = g_cost[cell], scratch[cell, 1] + 1
         came = facing  # the move it made into this cell (turning robots only)
-        if facing >= 0 and cell != source:
-            came = _move_of(neighbours, scratch[cell, 2], cell)
+        turn = 0.0  # the price of a quarter turn here
+        if facing >= 0:
+            if cell != source:
+                came = _move_of(neighbours, scratch[cell, 2], cell)
+            turn = costs[3]
+            if costs.shape[0] > 4:
+                here = flow[cell, 0] + flow[cell, 1] + flow[cell, 2] + flow[cell, 3]
+                turn *= 1.0 + costs[4] * here
         for k in range(4):
             other = neighbours[cell, k]
             if other < 0 or scratch[other, 3] == generation:
@@ -391,7 +399,7 @@ def congestion_path(
             contra = (flow[cell, k] + 1) * flow[other, (k + 2) % 4]
             cost = g + 1.0 + costs[0] * vertex + costs[1] * contra
             if facing >= 0 and k != came:
-                cost += costs[3] * (2.0 if k == (came + 2) % 4 else 1.0)
+                cost += turn * (2.0 if k == (came + 2) % 4 else 1.0)
             if scratch[other, 0] == generation and g_cost[other] <= cost:
                 continue
             scratch[other, 0], scratch[other, 1], scratch[other, 2] = generation, depth, cell

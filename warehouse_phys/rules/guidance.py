@@ -67,6 +67,9 @@ class GuidanceConfig:
     #: Cost of a quarter turn in a turning robot's guide path [moves] (None: its guide
     #: path is searched as a four-direction robot's).
     turn_cost: float | None = 1.0
+    #: A turn holds up the robots behind it: a quarter turn at a cell costs ``turn_cost``
+    #: times (1 + this times the guide paths leaving the cell).
+    turn_traffic_weight: float = 0.0
     #: Whether robots follow their guide paths (else distances with a flow tie-break).
     follow: bool = True
     #: Robots whose guide path is searched anew each step besides those that need one.
@@ -88,7 +91,7 @@ class GuidanceConfig:
     first_time_limit: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("vertex_weight", "contraflow_weight"):
+        for name in ("vertex_weight", "contraflow_weight", "turn_traffic_weight"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
         if not self.heuristic_weight >= 1:
@@ -253,7 +256,7 @@ class TrafficGuidance:
             self._generation = 1
         paths, config = self._paths, self.config
         costs = np.array([config.vertex_weight, config.contraflow_weight, config.heuristic_weight,
-                          config.turn_cost or 0.0])  # fmt: skip
+                          config.turn_cost or 0.0, config.turn_traffic_weight])  # fmt: skip
         goal = int(self._column[paths.goal[i]])
         facing = -1 if self._facing is None or config.turn_cost is None else self._facing[i]
         moves = graph_search.congestion_path(
