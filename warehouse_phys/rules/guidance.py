@@ -19,6 +19,10 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   guide paths' search, from the way the robot faces when it is searched, so of equally
   priced paths it takes one with few turns (on MR23-I-10, 6 % more errands over the first
   300 steps than paths searched as a four-direction robot's, at the same cost a step).
+  A turn holds up the robots behind the turning robot for a step, so a turn where many
+  guide paths pass costs more (``turn_traffic_weight``: ``turn_cost`` times one plus
+  the weight times the guide paths leaving the cell); on MR23-I-10, 3.4 % more errands
+  over the first 600 steps with 0.5 than with 0, at a cheaper step.
 - Following (``follow=True``): a candidate cell of a robot is valued by its guide path,
   the moves left along it from the path cell it is on or beside (one more beside), as
   guided PIBT does; so PIBT moves it along its path, and pushes and backtracks as ever.
@@ -68,8 +72,8 @@ class GuidanceConfig:
     #: path is searched as a four-direction robot's).
     turn_cost: float | None = 1.0
     #: A turn holds up the robots behind it: a quarter turn at a cell costs ``turn_cost``
-    #: times (1 + this times the guide paths leaving the cell).
-    turn_traffic_weight: float = 0.0
+    #: times (1 + this times the guide paths leaving the cell; 0: ``turn_cost`` alone).
+    turn_traffic_weight: float = 0.5
     #: Whether robots follow their guide paths (else distances with a flow tie-break).
     follow: bool = True
     #: Robots whose guide path is searched anew each step besides those that need one.
