@@ -277,6 +277,7 @@ def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_
     assert summary["moves"] == moves
     assert summary["errands"] == summary["deliveries"] >= summary["tasks"]
     assert summary["published"]["best_per_step"] == 30.97
+    assert summary["scheduler"] == "nearest_free_robot"
     timing = summary["cpu_seconds_of"]
     assert set(timing) == {"reset", "first_step", "median_step", "max_step", "frames",
                            "median_frame"}  # fmt: skip

@@ -147,6 +147,8 @@ class Simulation:
     #: instance: its ticks and delays; a run on ticks: turning robots, square robots).
     not_simulated: tuple[str, ...] = ()
     tasks: np.ndarray | None = None
+    #: A 2024 or later instance's scheduler, by its name (None for the others).
+    scheduler: str | None = None
 
     @property
     def steps(self) -> int:
@@ -283,6 +285,7 @@ class Simulation:
             "tasks_per_step": int(self.tasks.sum()) / steps,
             "published": None if published is None else published.to_json(),
             "not_simulated": list(self.not_simulated),
+            "scheduler": self.scheduler,
             "tasks_per_step_series": self.tasks.tolist(),
         }
 
@@ -435,6 +438,7 @@ def simulate(
         instance=None if env.instance is None else env.instance.name,
         not_simulated=_not_simulated(env.instance),
         tasks=None if errands is None else np.array(tasks_at, dtype=np.int64),
+        scheduler=_scheduler_name(errands),
         **(
             {}
             if env.lifelong
@@ -681,6 +685,14 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
     except (ValueError, TypeError, OSError) as error:
         raise UsageError(str(error).splitlines()[0]) from None
     return env, policy
+
+
+def _scheduler_name(errands: Any) -> str | None:
+    """The name of the scheduler that hands ``errands``' tasks out, None if none does."""
+    scheduler = getattr(errands, "scheduler", None)
+    if scheduler is None:
+        return None
+    return getattr(scheduler, "__name__", type(scheduler).__name__)
 
 
 def _not_simulated(instance: Any) -> tuple[str, ...]:
