@@ -21,8 +21,8 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   300 steps than paths searched as a four-direction robot's, at the same cost a step).
   A turn holds up the robots behind the turning robot for a step, so a turn where many
   guide paths pass costs more (``turn_traffic_weight``: ``turn_cost`` times one plus
-  the weight times the guide paths leaving the cell); on MR23-I-10, 3.4 % more errands
-  over the first 600 steps with 0.5 than with 0, at a cheaper step.
+  the weight times the guide paths leaving the cell); on MR23-I-10 with 0.5, 29.65
+  errands a step over 5,000 steps against 28.45 with 0, at a cheaper step.
 - Following (``follow=True``): a candidate cell of a robot is valued by its guide path,
   the moves left along it from the path cell it is on or beside (one more beside), as
   guided PIBT does; so PIBT moves it along its path, and pushes and backtracks as ever.
