@@ -146,12 +146,14 @@ def test_a_scheduler_of_ones_own_is_called_and_a_bad_answer_is_refused():
         errand_list(instance([[40]]), scheduler=nearest_free_robot)
 
 
-def brute_force_nearest(robot_cells, task_cells, cols):
-    """Pair the nearest robot and task (Manhattan), ties to the lower robot then the earlier
-    task, until one side runs out."""
+def brute_force_nearest(robot_cells, task_cells, cols, lengths=None):
+    """Pair the robot and task of least cost (Manhattan to the task's first stop, plus the
+    task's length if given), ties to the lower robot then the earlier task, until one
+    side runs out."""
+    lengths = [0] * len(task_cells) if lengths is None else lengths
     choice = [-1] * len(robot_cells)
     pairs = sorted(
-        (abs(r // cols - t // cols) + abs(r % cols - t % cols), i, j)
+        (abs(r // cols - t // cols) + abs(r % cols - t % cols) + lengths[j], i, j)
         for (i, r), (j, t) in itertools.product(enumerate(robot_cells), enumerate(task_cells))
     )
     used = set()
@@ -171,22 +173,6 @@ def test_the_nearest_pairing_is_the_greedy_nearest_matching(robots, tasks):
     assert choice.tolist() == brute_force_nearest(robots, tasks, 10)
 
 
-def brute_force_least_makespan(robot_cells, task_cells, lengths, cols):
-    """Pair the robot and task of least makespan (Manhattan to the first stop plus the
-    task's length), ties to the lower robot then the earlier task, until one side runs out."""
-    choice = [-1] * len(robot_cells)
-    pairs = sorted(
-        (abs(r // cols - t // cols) + abs(r % cols - t % cols) + lengths[j], i, j)
-        for (i, r), (j, t) in itertools.product(enumerate(robot_cells), enumerate(task_cells))
-    )
-    used = set()
-    for _, i, j in pairs:
-        if choice[i] < 0 and j not in used:
-            choice[i] = j
-            used.add(j)
-    return choice
-
-
 @settings(max_examples=200)
 @given(robots=st.lists(st.integers(0, 99), max_size=20),
        tasks=st.lists(st.tuples(st.integers(0, 99), st.integers(0, 30)), max_size=20))  # fmt: skip
@@ -195,7 +181,7 @@ def test_the_makespan_pairing_is_the_greedy_least_makespan_matching(robots, task
     cells = np.array([t for t, _ in tasks], dtype=np.int64)
     lengths = np.array([length for _, length in tasks], dtype=np.int64)
     choice = least_makespan(np.array(robots, dtype=np.int64), cells, 10, task_lengths=lengths)
-    assert choice.tolist() == brute_force_least_makespan(robots, cells.tolist(), lengths, 10)
+    assert choice.tolist() == brute_force_nearest(robots, cells.tolist(), 10, lengths)
     # Without lengths it is the nearest pairing.
     plain = least_makespan(np.array(robots, dtype=np.int64), cells, 10)
     assert plain.tolist() == nearest_free_robot(np.array(robots, np.int64), cells, 10).tolist()
