@@ -22,8 +22,11 @@ The built-in schedulers pair free robots and open tasks greedily, cheapest pair 
 - :func:`nearest_free_robot` (the default) by the distance from the robot to the task's
   first errand;
 - :func:`least_makespan` by the task's *makespan*, that distance plus the task's own
-  length, as the competition's default entry does (so that, of tasks equally near, the
-  shorter goes first: the fleet finishes more tasks a step).
+  length, as the competition's default entry does: of tasks equally near, the shorter
+  goes first. On 2024 WAREHOUSE's 5,000 steps it finished 2-3 % more tasks than the
+  nearest pairing with guided or plain PIBT, far more in the first few hundred steps,
+  and fewer with robots that never meet (the open tasks left are the long ones:
+  :mod:`warehouse_phys.rules.task_flow`).
 
 Like :mod:`warehouse_phys.rules.grid`, this module imports neither gymnasium, pymunk nor
 pygame.
