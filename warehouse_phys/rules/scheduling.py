@@ -23,7 +23,7 @@ The built-in schedulers pair free robots and open tasks greedily, cheapest pair 
   first errand;
 - :func:`least_makespan` by the task's *makespan*, that distance plus the task's own
   length, as the competition's default entry does: of tasks equally near, the shorter
-  goes first. On 2024 WAREHOUSE's 5,000 steps it finished 2-3 % more tasks than the
+  goes first. On 2024 WAREHOUSE's 5,000 steps it finished 1-3 % more tasks than the
   nearest pairing with guided or plain PIBT, far more in the first few hundred steps,
   and fewer with robots that never meet (the open tasks left are the long ones:
   :mod:`warehouse_phys.rules.task_flow`).
