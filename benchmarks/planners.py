@@ -90,6 +90,11 @@ def guidance_of(name: str, time_limit: float | None) -> dict[str, object]:
     return GUIDANCE | ({} if time_limit is None else {"time_limit": time_limit})
 
 
+def scheduler_option(name: str | None) -> dict[str, object]:
+    """The fleet's ``scheduler=`` for a built-in scheduler's name (none: its default)."""
+    return {} if name is None else {"scheduler": scheduler_named(name)}
+
+
 def lorr_run(
     name: str,
     steps: int,
@@ -103,8 +108,7 @@ def lorr_run(
     """One planner on ``instance`` (MR23-I-10) in this process; its figures. ``scheduler``
     names a built-in scheduler for a 2024 instance (None: the fleet's default); every
     ``progress`` steps (0: never) the counts so far go to stderr."""
-    chosen = {} if scheduler is None else {"scheduler": scheduler_named(scheduler)}
-    env = lorr.fleet(instance, moves=moves, max_cycles=steps, **chosen)
+    env = lorr.fleet(instance, moves=moves, max_cycles=steps, **scheduler_option(scheduler))
     policy = planner_policy(name, seed=0, **guidance_of(name, time_limit))
     gc.freeze()  # as simulate does: the floor's objects leave Python's full collections
     observations, infos = env.reset(seed=0)
@@ -152,9 +156,8 @@ def lorr_run(
 def flow_run(instance: Path, steps: int, scheduler: str | None) -> dict[str, object]:
     """The congestion-free flow of ``instance`` (:mod:`warehouse_phys.rules.task_flow`):
     what its errand list and scheduler would finish if robots never met."""
-    chosen = {} if scheduler is None else {"scheduler": scheduler_named(scheduler)}
     loaded = read_instance(instance)
-    flow = congestion_free_flow(loaded, steps, **chosen)
+    flow = congestion_free_flow(loaded, steps, **scheduler_option(scheduler))
     return {
         "instance": loaded.name,
         "scheduler": scheduler,
@@ -331,19 +334,18 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     if unknown:
         parser.error(f"unknown planners {unknown}; known: {list(PLANNERS)}")
     steps = 3 if args.quick else args.steps
+    if args.quick:
+        args.instance = EI23_200
     GUIDANCE.clear()
     GUIDANCE.update(args.guidance)
     if args.one is not None:
-        instance = EI23_200 if args.quick else args.instance
-        run = lorr_run(args.one, steps, args.window, args.time_limit, instance, args.moves,
+        run = lorr_run(args.one, steps, args.window, args.time_limit, args.instance, args.moves,
                        args.scheduler, args.progress)  # fmt: skip
         print(json.dumps(run))
         return {}
     print(f"CPU time, one core; Python {platform.python_version()}, {os.cpu_count()} CPUs",
           flush=True)  # fmt: skip
     runs, flow = [], None
-    if args.quick:
-        args.instance = EI23_200
     if not args.skip_lorr and not args.instance.exists():
         print(f"{args.instance.stem}: skipped, {args.instance} is absent")
     elif not args.skip_lorr:
