@@ -2,8 +2,10 @@
 
 :func:`guided_pibt_policy` plans with :class:`~warehouse_phys.rules.guidance.GuidedPIBT`:
 PIBT following guide paths priced by the fleet's traffic. :func:`planner_policy` gives a
-policy by name (``"pibt"``, ``"guided"``, and the guidance's ablations ``"guided-costs"``
-and ``"guided-paths"``), for benchmarks and command lines.
+policy by name (``"pibt"``, ``"guided"``, the guidance's ablations ``"guided-costs"``
+and ``"guided-paths"``, and for turning robots ``"guided-ops"`` and ``"pibt-ops"``, planned
+over multi-action operations with and without guidance), for benchmarks and command
+lines.
 """
 
 from __future__ import annotations
@@ -26,8 +28,18 @@ PLANNER_GUIDANCE: dict[str, GuidanceConfig] = {
     "guided-costs": GuidanceConfig(follow=False),
     "guided-paths": GuidanceConfig(vertex_weight=0.0, contraflow_weight=0.0),
 }
+#: Planners over multi-action operations of 3 actions (turning robots only:
+#: :class:`~warehouse_phys.rules.operations.OperationPIBT`), by name, and their guidance:
+#: the ``guided`` planner's (``guided-ops``), or none, distances alone (``pibt-ops``: no
+#: guide path is searched).
+PLANNER_OPERATIONS: dict[str, GuidanceConfig] = {
+    "guided-ops": GuidanceConfig(),
+    "pibt-ops": GuidanceConfig(max_searches=0),
+}
+#: Actions in an operation of the planners of :data:`PLANNER_OPERATIONS`.
+OPERATION_DEPTH = 3
 #: Every name :func:`planner_policy` knows.
-PLANNERS = ("pibt", *PLANNER_GUIDANCE)
+PLANNERS = ("pibt", *PLANNER_GUIDANCE, *PLANNER_OPERATIONS)
 
 
 class GuidedPIBTPolicy:
@@ -36,9 +48,12 @@ class GuidedPIBTPolicy:
     one. ``planner`` is the planner of the episode under way (its ``guidance`` counts the
     last step's searches and unguided robots), ``None`` before the first call."""
 
-    def __init__(self, seed: int = 0, config: GuidanceConfig | None = None) -> None:
+    def __init__(
+        self, seed: int = 0, config: GuidanceConfig | None = None, operations: int = 0
+    ) -> None:
         self.seed = seed
         self.config = config
+        self.operations = operations
         self.planner: GuidedPIBT | None = None
         self._env: WarehouseFleetEnv | None = None
         self._index: dict[str, int] = {}
@@ -59,6 +74,7 @@ class GuidedPIBTPolicy:
                 seed=self.seed,
                 moves=getattr(env, "moves", "grid"),
                 config=self.config,
+                operations=self.operations,
             )
             self._index = {agent: i for i, agent in enumerate(env.possible_agents)}
         actions = self.planner.plan(
@@ -71,15 +87,18 @@ class GuidedPIBTPolicy:
         return {agent: actions[self._index[agent]] for agent in env.agents}
 
 
-def guided_pibt_policy(seed: int = 0, config: GuidanceConfig | None = None) -> FleetPolicy:
+def guided_pibt_policy(
+    seed: int = 0, config: GuidanceConfig | None = None, operations: int = 0
+) -> FleetPolicy:
     """A fleet policy that plans with :class:`~warehouse_phys.rules.guidance.GuidedPIBT`
     (``config``: the guidance, :class:`~warehouse_phys.rules.guidance.GuidanceConfig`'s
-    defaults unless given): stateful across the steps of an episode, started afresh when
+    defaults unless given; ``operations``: its operations' actions, turning robots only,
+    0 for one-step PIBT): stateful across the steps of an episode, started afresh when
     the environment resets (``env.steps`` back at 0) or another environment calls it, and
     deterministic for a seed (while the guidance's ``time_limit`` is not reached). It reads
     the fleet's public state only, as :func:`~warehouse_phys.rules.planning.pibt_policy`
     does (a :class:`GuidedPIBTPolicy`)."""
-    return GuidedPIBTPolicy(seed, config)
+    return GuidedPIBTPolicy(seed, config, operations)
 
 
 def planner_policy(name: str, seed: int = 0, **guidance: Any) -> FleetPolicy:
@@ -94,9 +113,10 @@ def planner_policy(name: str, seed: int = 0, **guidance: Any) -> FleetPolicy:
         if guidance:
             raise ValueError(f"plain PIBT takes no guidance, got {sorted(guidance)}")
         return pibt_policy(seed=seed)
-    if name not in PLANNER_GUIDANCE:
+    if name not in PLANNERS:
         raise ValueError(f"unknown planner {name!r}; known: {list(PLANNERS)}")
-    config = PLANNER_GUIDANCE[name]
+    config = PLANNER_GUIDANCE.get(name) or PLANNER_OPERATIONS[name]
     if guidance:
         config = dataclasses.replace(config, **guidance)
-    return guided_pibt_policy(seed=seed, config=config)
+    depth = OPERATION_DEPTH if name in PLANNER_OPERATIONS else 0
+    return guided_pibt_policy(seed=seed, config=config, operations=depth)

@@ -483,13 +483,14 @@ def follow_values(
     robots: np.ndarray,
     window: int,
     values: np.ndarray,
+    beside_cost: float = 1.0,
 ) -> None:
     """The values of ``robots``' candidate cells (``candidates``, ``(m, c)`` columns, -1
     for none) along their guide paths, written into ``values`` (``(m, c)``): a cell on
     the next ``window`` cells of the path, the moves left along it from there; a cell
-    beside them, one more than the least such (the guide path's distance, as Chen et
-    al.'s guided PIBT ranks moves); any other cell, ``inf``. A robot that stands on its
-    path (:func:`follow_paths`) values its next path cell one below staying."""
+    beside them, ``beside_cost`` more than the least such (1: the guide path's distance,
+    as Chen et al.'s guided PIBT ranks moves); any other cell, ``inf``. A robot that
+    stands on its path (:func:`follow_paths`) values its next path cell one below staying."""
     for r in range(robots.shape[0]):
         i = robots[r]
         start, at, moves = path_start[i], cursor[i], path_moves[i]
@@ -502,6 +503,6 @@ def follow_values(
                 for k in range(at, last + 1):
                     other = pool[start + k]
                     apart = abs(cell_row[other] - row) + abs(cell_col[other] - col)
-                    if apart <= 1 and apart + moves - k < best:
-                        best = apart + moves - k
+                    if apart <= 1 and apart * beside_cost + moves - k < best:
+                        best = apart * beside_cost + moves - k
             values[r, c] = best

@@ -54,6 +54,7 @@ from warehouse_phys.rules import graph_search
 from warehouse_phys.rules.distances import DistanceMaps
 from warehouse_phys.rules.grid import WarehouseGrid
 from warehouse_phys.rules.headings import HEADING_MOVES
+from warehouse_phys.rules.operations import OperationPIBT
 from warehouse_phys.rules.planning import PIBT
 from warehouse_phys.rules.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 
@@ -168,6 +169,7 @@ class TrafficGuidance:
         self._paths = _Paths.empty(0)
         self._turn = 0  # the next robot whose guide path is refreshed
         self._first = True  # no step planned yet: first_time_limit bounds the next
+        self._guided = np.zeros(0, dtype=bool)  # robots with a guide path after the update
         #: Guide-path searches made in the last step, and robots left unguided because
         #: the step's time ran out.
         self.searches = 0
@@ -225,7 +227,28 @@ class TrafficGuidance:
         status[~active] = 1
         self._facing = facing
         self._search_paths(column, status, active, deadline)
-        return self._values(here, goal, column, status == 0, distances)
+        self._guided = status == 0
+        return self._values(here, goal, column, self._guided, distances)
+
+    def cell_values(self, cells: np.ndarray, beside_cost: float = 1.0) -> np.ndarray:
+        """The values of any cells along each robot's guide path as of the last
+        :meth:`update` (``cells``: ``(N, M)`` cell indices, -1 for none), lower better: a
+        cell on the next ``config.window`` cells of the path, the moves left from there;
+        a cell beside them, ``beside_cost`` more than the least such; any other,
+        ``beside_cost + 1`` more than the moves left from the robot. ``NaN`` for robots
+        without a guide path."""
+        values = np.full(cells.shape, np.nan)
+        robots = np.flatnonzero(self._guided)
+        if not robots.size:
+            return values
+        found = np.empty((robots.size, cells.shape[1]), dtype=np.float64)
+        graph_search.follow_values(self._paths.pool, self._paths.start, self._paths.moves,
+                                   self._paths.cursor, self._cell_row, self._cell_col,
+                                   self._column[cells[robots]], robots, self.config.window,
+                                   found, float(beside_cost))  # fmt: skip
+        worst = self._paths.moves[robots] - self._paths.cursor[robots] + beside_cost + 1
+        values[robots] = np.where(np.isinf(found), worst[:, None], found)
+        return values
 
     def _search_paths(
         self, column: np.ndarray, status: np.ndarray, active: np.ndarray, deadline: float | None
@@ -334,16 +357,9 @@ class TrafficGuidance:
         robots = np.flatnonzero(guided)
         if not robots.size:
             return values
-        candidates = self._table[here[robots]]
         if self.config.follow:
-            found = np.empty(candidates.shape, dtype=np.float64)
-            graph_search.follow_values(self._paths.pool, self._paths.start, self._paths.moves,
-                                       self._paths.cursor, self._cell_row, self._cell_col,
-                                       self._column[candidates], robots, self.config.window,
-                                       found)  # fmt: skip
-            worst = self._paths.moves[robots] - self._paths.cursor[robots] + 2
-            values[robots] = np.where(np.isinf(found), worst[:, None], found)
-            return values
+            return self.cell_values(self._table[here])
+        candidates = self._table[here[robots]]
         if distances is None:
             raise ValueError("guidance without following needs the planner's distances")
         targets = np.repeat(goal[robots], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
@@ -375,6 +391,12 @@ class GuidedPIBT:
         seed: Seeds PIBT's tie-breaks.
         moves: ``"grid"`` or ``"rotate"``, as PIBT.
         config: The guidance's prices, refreshes and bounds.
+        operations: Turning robots only: plan with operations of this many actions
+            (:class:`~warehouse_phys.rules.operations.OperationPIBT`, its cells valued
+            along the guide paths) instead of one-step PIBT; 0 (default): one step.
+
+    Raises:
+        ValueError: for ``operations`` with four-direction robots, or out of 0..4.
     """
 
     def __init__(
@@ -386,10 +408,20 @@ class GuidedPIBT:
         seed: int = 0,
         moves: str = "grid",
         config: GuidanceConfig | None = None,
+        operations: int = 0,
     ) -> None:
         self.pibt = PIBT(grid, distances=distances, corner_follows=corner_follows, seed=seed,
                          moves=moves)  # fmt: skip
         self.guidance = TrafficGuidance(grid, config)
+        #: The planner over operations, if any.
+        self.operations: OperationPIBT | None = None
+        if operations:
+            if moves != "rotate":
+                raise ValueError(f"operations are for turning robots (moves='rotate'), got "
+                                 f"moves={moves!r}")  # fmt: skip
+            self.operations = OperationPIBT(grid, distances=self.pibt.distances,
+                                            corner_follows=corner_follows, seed=seed,
+                                            depth=operations)  # fmt: skip
 
     def plan(
         self,
@@ -424,5 +456,12 @@ class GuidedPIBT:
         values = self.guidance.update(here, goals[:, 0] * cols + goals[:, 1], movable,
                                       self.pibt.distances, here[present & ~movable],
                                       facing)  # fmt: skip
+        if self.operations is not None:
+            # A cell beside the guide path costs more than an operation's moves: a robot
+            # leaves its path (and needs a new one) only when no operation along it fits.
+            local = self.guidance.cell_values(self.operations.local_cells(here),
+                                              beside_cost=self.operations.depth + 1.0)  # fmt: skip
+            return self.operations.plan(cells, goals, movable, present, headings=headings,
+                                        cell_values=local)  # fmt: skip
         return self.pibt.plan(cells, goals, movable, present, headings=headings,
                               candidate_values=values)  # fmt: skip

@@ -517,22 +517,9 @@ class PIBT:
         return False
 
     def _update_priorities(self, here: np.ndarray, goal: np.ndarray) -> None:
-        """Grow the priority of every robot still on its way to the same goal; a robot
-        with a new goal (or on its goal) falls back to its tie-breaker."""
-        n = len(here)
-        if self._priority is None or len(self._priority) != n:
-            if self._priority is not None:
-                raise ValueError(
-                    f"this planner planned for {len(self._priority)} robots, now {n}: "
-                    "use a new PIBT for a new fleet"
-                )
-            self._priority = self.rng.random(n)
-            self._goals = goal.copy()
-            return
-        fresh = (goal != self._goals) | (here == goal)
-        self._priority[fresh] -= np.floor(self._priority[fresh])
-        self._priority[~fresh] += 1
-        self._goals = goal.copy()
+        """Grow the robots' priorities (:func:`grow_priorities`)."""
+        self._priority, self._goals = grow_priorities(self._priority, self._goals, here, goal,
+                                                      self.rng)  # fmt: skip
 
     def _pibt(
         self,
@@ -728,6 +715,35 @@ class PIBT:
                 occupied_next[onward] = j
             return None
         return blocked_by
+
+
+def grow_priorities(
+    priority: np.ndarray | None,
+    goals_before: np.ndarray | None,
+    here: np.ndarray,
+    goal: np.ndarray,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
+    """PIBT's priorities after one more step: each robot still on its way to the same goal
+    gains one; a robot with a new goal (or on its goal) falls back to its tie-breaker, the
+    fraction drawn from ``rng`` on the first step (``priority`` None). Returns the
+    priorities (updated in place) and the goals to pass next time.
+
+    Raises:
+        ValueError: if the number of robots changed.
+    """
+    n = len(here)
+    if priority is None:
+        return rng.random(n), goal.copy()
+    if len(priority) != n:
+        raise ValueError(
+            f"this planner planned for {len(priority)} robots, now {n}: "
+            "use a new planner for a new fleet"
+        )
+    fresh = (goal != goals_before) | (here == goal)
+    priority[fresh] -= np.floor(priority[fresh])
+    priority[~fresh] += 1
+    return priority, goal.copy()
 
 
 def pibt_policy(seed: int = 0) -> FleetPolicy:
