@@ -32,8 +32,9 @@ action, then the one with fewest actions (a robot on its goal waits), then a see
 What it does not promise: progress. A robot may put out only one robot at a time, and
 a robot put out while it faces a wall cannot leave at once; in crowds of turning
 robots every operation that brings the robots at the top nearer their goals can meet
-two or more others, and the fleet locks up (2024 WAREHOUSE's rows below its pick-up
-pockets: the README). Nor does it plan beyond its operations' steps (no LNS).
+two or more others, and the robots wait more and more (2024 WAREHOUSE's rows below its
+pick-up pockets; with smaller ``revisits`` and ``max_kicks`` the fleet locked up: the
+README). Nor does it plan beyond its operations' steps (no LNS).
 
 What it promises: every plan is granted by the traffic rule (the reservations forbid two
 robots in one cell and swaps at every depth, and the step's actions pass
@@ -65,9 +66,9 @@ from warehouse_phys.rules.traffic import neighbour_table
 #: Actions in an operation by default.
 DEPTH = 3
 #: Times a robot may be placed in one step by default (it may be put out after the first).
-REVISITS = 2
+REVISITS = 4
 #: Times one robot's chain may put robots out, by default (bounds a step's work).
-MAX_KICKS = 64
+MAX_KICKS = 512
 #: Cost of a wait before an operation's last move, among operations of equal value [steps].
 _DELAY_COST = 1e-3
 
