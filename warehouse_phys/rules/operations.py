@@ -7,9 +7,10 @@ sequence of ``depth`` turning actions (:func:`operation_table`: 3 actions, 50 of
 once a quarter turn straight back is left out), after Yukhnevich and Andreychuk's EPIBT
 (Enhancing PIBT via multi-action operations, 2025):
 
-- Each robot holds an operation at every moment of the planning, all waits to begin
-  with, and every cell at each of the operation's depths (and every move between two
-  cells) is reserved by at most one robot.
+- Each robot holds an operation at every moment of the planning, and every cell at each
+  of the operations' depths (and every move between two cells) is reserved by at most
+  one robot. A robot begins a step holding the rest of its last operation followed by a
+  wait (all waits on the first step, or when some robot did not do what was planned).
 - Robots plan in decreasing priority (:func:`~warehouse_phys.rules.planning.grow_priorities`,
   PIBT's own). A robot tries its operations best first (:meth:`OperationPIBT.plan`): one
   that meets no other robot's reservations is taken; one that meets exactly one robot of
@@ -18,8 +19,7 @@ once a quarter turn straight back is left out), after Yukhnevich and Andreychuk'
   put it out gives its place back and tries its next operation. A robot is placed at
   most ``revisits`` times a step, and one chain puts robots out at most ``max_kicks``
   times; a robot whose turn comes unplaced plans in it.
-- Each robot then takes its operation's first action. The operations are planned anew
-  every step, from where the robots are.
+- Each robot then takes its operation's first action.
 
 An operation is valued by where it leaves the robot: the step it reaches the goal, if it
 does, else ``depth`` plus the fewest steps from its last cell and heading to a
@@ -69,8 +69,8 @@ DEPTH = 3
 REVISITS = 4
 #: Times one robot's chain may put robots out, by default (bounds a step's work).
 MAX_KICKS = 512
-#: Cost of a wait before an operation's last move, among operations of equal value [steps].
-_DELAY_COST = 1e-3
+#: Scale of the tie-breaks among operations of equal value [steps]: far below one step.
+_TIE_COST = 1e-3
 
 
 def operation_table(depth: int = DEPTH) -> np.ndarray:
@@ -199,7 +199,7 @@ def _operation_values(
                 delays += ops[k, d] == 3
             # Among equals: the last cell nearest the goal (what the end's turns leave out
             # of the value), then fewest waits before the last action, then fewest actions.
-            values[i, k] = value + _DELAY_COST * (10 * progress + delays
+            values[i, k] = value + _TIE_COST * (10 * progress + delays
                                                   + (last_move + 1 - delays) / 8)  # fmt: skip
 
 
