@@ -61,7 +61,7 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 from warehouse_phys.envs import lorr
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
-from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
+from warehouse_phys.rl.fleet_planners import PLANNER_OPERATIONS, PLANNERS, planner_policy
 from warehouse_phys.rules.instances import read_instance
 from warehouse_phys.rules.scheduling import SCHEDULERS, scheduler_named
 from warehouse_phys.rules.task_flow import congestion_free_flow
@@ -342,6 +342,10 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     unknown = [name for name in planners if name not in PLANNERS]
     if unknown:
         parser.error(f"unknown planners {unknown}; known: {list(PLANNERS)}")
+    turning_only = [name for name in planners if name in PLANNER_OPERATIONS]
+    if turning_only and (args.moves != "rotate" or args.scaling):
+        parser.error(f"{turning_only} plan turning robots: add --moves rotate (the scaling "
+                     "runs are four-direction)")  # fmt: skip
     steps = 3 if args.quick else args.steps
     if args.quick:
         args.instance = EI23_200

@@ -236,3 +236,26 @@ def test_the_planners_benchmark_reports_guided_beside_plain_pibt(tmp_path):
             (100, "pibt"), (100, "guided"), (200, "pibt"), (200, "guided")]  # fmt: skip
         assert all(row["refused"] == 0 for row in rows)
         assert (tmp_path / "scaling.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_planners_benchmark_plays_operations_with_turning_robots_only(tmp_path):
+    """Planners over operations play the Kiva floor with turning robots; asked for
+    four-direction robots they are refused in one line, before anything runs."""
+    refused = subprocess.run(
+        [sys.executable, "benchmarks/planners.py", "--quick", "--planners", "guided-ops"],
+        cwd=ROOT, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert refused.returncode == 2
+    assert "['guided-ops'] plan turning robots: add --moves rotate" in refused.stderr
+    assert "Traceback" not in refused.stderr
+    if not (ROOT.parent / "shared" / "maps" / "kiva-33-46.map").exists():
+        pytest.skip("kiva-33-46.map not found beside the checkout")
+    result = subprocess.run(
+        [sys.executable, "benchmarks/planners.py", "--quick", "--skip-lorr", "--moves",
+         "rotate", "--planners", "pibt-ops,guided-ops", "--json", str(tmp_path / "p.json")],
+        cwd=ROOT, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    rows = json.loads((tmp_path / "p.json").read_text())["kiva"]
+    assert [(row["planner"], row["moves"], row["refused"]) for row in rows] == [
+        ("pibt-ops", "rotate", 0), ("guided-ops", "rotate", 0)] * 2  # fmt: skip
