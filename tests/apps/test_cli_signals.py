@@ -4,12 +4,11 @@ no empty run folder left, and exit status 143 (128 + SIGTERM)."""
 import signal
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
 
-from warehouse_phys.apps import cli
+from warehouse_phys.apps import interrupts
 
 #: Seconds a command may take to start and open its run folder on a busy machine.
 START_LIMIT = 120
@@ -51,7 +50,7 @@ def test_sigterm_says_what_was_written_removes_the_empty_run_folder_and_exits_14
     tmp_path, command
 ):
     process, err = terminate_once_running(command, tmp_path)
-    assert process.returncode == 143
+    assert process.returncode == 143, err
     prog = f"python -m {command[0]}"
     assert err == f"{prog}: terminated; nothing was written\n"
     assert list((tmp_path / "runs").iterdir()) == []  # the run folder is gone
@@ -64,7 +63,7 @@ def test_sigterm_after_some_files_names_them_and_leaves_no_half_written_file(
     from warehouse_phys.drawing.animation import Animation
 
     def terminated(self, path):
-        raise cli.Terminated  # as SIGTERM arriving while the GIF is written
+        raise interrupts.Terminated  # as SIGTERM arriving while the GIF is written
 
     monkeypatch.setattr(Animation, "save", terminated)
     out = tmp_path / "run"
@@ -78,24 +77,3 @@ def test_sigterm_after_some_files_names_them_and_leaves_no_half_written_file(
     assert sorted(p.name for p in out.iterdir()) == [
         "congestion.png", "summary.json", "throughput.png"
     ]  # fmt: skip
-
-
-def test_the_sigterm_handler_lives_only_while_a_command_runs():
-    if threading.current_thread() is not threading.main_thread():
-        pytest.skip("only the main thread receives signals; this test sends one to itself")
-    seen = []
-
-    @cli.stops_on_sigterm
-    def command() -> int:
-        seen.append(signal.getsignal(signal.SIGTERM))
-        signal.raise_signal(signal.SIGTERM)
-        return 0  # never reached: the signal raises
-
-    before = signal.getsignal(signal.SIGTERM)
-    with pytest.raises(cli.Terminated) as stopped:
-        command()
-    assert len(seen) == 1
-    assert seen[0] is not before
-    assert signal.getsignal(signal.SIGTERM) is before
-    assert cli.interruption(stopped.value) == ("terminated", 143)
-    assert cli.interruption(KeyboardInterrupt()) == ("interrupted", 130)

@@ -9,7 +9,7 @@ import warehouse_phys
 from tests.drawing.test_render import robot_centre
 from warehouse_phys import Action
 from warehouse_phys import play as play_cli
-from warehouse_phys.apps import cli as cli_module
+from warehouse_phys.apps import interrupts
 from warehouse_phys.apps.play import HUD_LINE_PX, HUD_LINES, FleetPlaySession, PlaySession
 from warehouse_phys.envs import fleet
 from warehouse_phys.rules.planning import PIBT
@@ -405,11 +405,11 @@ def test_ctrl_c_and_sigterm_close_the_window_and_exit_130_and_143(monkeypatch, s
 
     def run(self):
         if stop is None:
-            os.kill(os.getpid(), signal.SIGTERM)  # raised as cli.Terminated right here
+            os.kill(os.getpid(), signal.SIGTERM)  # raised as interrupts.Terminated right here
         raise stop()
 
     monkeypatch.setattr(PlaySession, "run", run)
     monkeypatch.setattr(PlaySession, "close", lambda self: closed.append(True))
     assert play_cli.main(["--env", "grid"]) == status
     assert closed == [True]
-    assert signal.getsignal(signal.SIGTERM) is not cli_module._terminate  # put back
+    assert signal.getsignal(signal.SIGTERM) is not interrupts._terminate  # put back

@@ -8,12 +8,9 @@ pick an environment with ``--env grid|phys`` and a floor with ``--rows``,
 from __future__ import annotations
 
 import argparse
-import functools
-import signal
-import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn, ParamSpec
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from warehouse_phys.apps.runs import ENVIRONMENTS, Floor
 from warehouse_phys.rules.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
@@ -29,46 +26,6 @@ MAX_CLI_ROBOTS = 10_000
 
 class UsageError(Exception):
     """A bad command line or input file: reported in one line, exit status 2."""
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised as an interrupt: a command stops on it as on Ctrl-C, with the same
-    message and clean-up, and exits with :func:`interruption`'s 143."""
-
-
-P = ParamSpec("P")
-
-
-def stops_on_sigterm(main: Callable[P, int]) -> Callable[P, int]:
-    """``main`` with SIGTERM raising :class:`Terminated` while it runs (in the main thread;
-    the previous handler is put back after). A second SIGTERM during the first one's
-    clean-up is ignored, so that the clean-up finishes."""
-
-    @functools.wraps(main)
-    def run(*args: P.args, **kwargs: P.kwargs) -> int:
-        if threading.current_thread() is not threading.main_thread():
-            return main(*args, **kwargs)  # only the main thread may set a handler
-        previous = signal.signal(signal.SIGTERM, _terminate)
-        try:
-            return main(*args, **kwargs)
-        finally:
-            if previous is not None:  # None: a handler set outside Python, left as it was
-                signal.signal(signal.SIGTERM, previous)
-
-    return run
-
-
-def _terminate(signum: int, frame: object) -> None:
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    raise Terminated
-
-
-def interruption(interrupt: KeyboardInterrupt) -> tuple[str, int]:
-    """What stopped a command, in a word, and its exit status: ``("terminated", 143)``
-    for SIGTERM (:class:`Terminated`), ``("interrupted", 130)`` for Ctrl-C."""
-    if isinstance(interrupt, Terminated):
-        return "terminated", 128 + signal.SIGTERM
-    return "interrupted", 128 + signal.SIGINT
 
 
 def written_note(folder: RunFolder | None) -> str:

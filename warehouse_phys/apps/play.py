@@ -44,9 +44,8 @@ from warehouse_phys.apps.cli import (
     add_robots_argument,
     bounded_int,
     floor_from_args,
-    interruption,
-    stops_on_sigterm,
 )
+from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
 from warehouse_phys.drawing.render import (
     DEFAULT_CELL_PX,
     MAX_FRAME_PIXELS,

@@ -72,11 +72,10 @@ from warehouse_phys.apps.cli import (
     UsageError,
     bounded_int,
     floor_from_layout,
-    interruption,
     open_run_folder,
-    stops_on_sigterm,
     written_note,
 )
+from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
 from warehouse_phys.envs.fleet import DELIVERY_MODES, WarehouseFleetEnv, parallel_env
 from warehouse_phys.rl.fleet_evaluation import (
     FleetPolicy,

@@ -57,10 +57,9 @@ from warehouse_phys.apps.cli import (
     add_robots_argument,
     bounded_int,
     floor_from_args,
-    interruption,
     open_run_folder,
-    stops_on_sigterm,
 )
+from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
 from warehouse_phys.apps.runs import (
     CURVE_FILE,
     EVALUATION_SEEDS,
