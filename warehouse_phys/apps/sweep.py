@@ -78,6 +78,7 @@ from warehouse_phys.apps.cli import (
     bounded_int,
     floor_from_layout,
 )
+from warehouse_phys.apps.interrupts import Terminated
 from warehouse_phys.apps.runs import ENVIRONMENTS, RUN_FILES, SUMMARY_FILE, TABLE_FILE, Floor
 from warehouse_phys.files.atomic import TEMPORARY_PREFIX, TEMPORARY_SUFFIX, atomic_write_text
 from warehouse_phys.files.runfolder import RunFolder, RunFolderError
@@ -547,17 +548,13 @@ class RayUnavailableError(Exception):
     """No Ray cluster could be reached or started; the message says why, in one line."""
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised as an interrupt so that the Ray processes started are shut down."""
-
-
 #: Set once SIGTERM arrives: Tune may re-raise the interrupt as a plain KeyboardInterrupt.
 _terminated = threading.Event()
 
 
 def _terminate(signum: int, frame: object) -> None:
     _terminated.set()
-    raise Terminated
+    raise Terminated  # so that the Ray processes started are shut down
 
 
 def check_address(address: str) -> None:
