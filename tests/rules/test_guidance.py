@@ -196,6 +196,25 @@ def test_robots_heading_opposite_ways_get_aisles_of_their_own():
         assert (rows[1].max() == 2) == apart
 
 
+@pytest.mark.parametrize(
+    ("turn_contraflow_weight", "facing", "apart"),
+    [(2.0, [2, 0], True), (None, [2, 0], False), (2.0, None, False)],
+)
+def test_contraflow_costs_turning_robots_more(turn_contraflow_weight, facing, apart):
+    """The same crossing, with contraflow at a tenth of a move: a four-direction robot's guide
+    path shares the top aisle, and so does a turning robot's priced as one's; with a
+    turning robot's own weight (``turn_contraflow_weight``, 2 by default) the second
+    takes the bottom aisle, turns and all, rather than meet the first head-on."""
+    grid = WarehouseGrid.from_layout(TWO_AISLES)
+    config = GuidanceConfig(contraflow_weight=0.1, turn_contraflow_weight=turn_contraflow_weight)
+    guidance = TrafficGuidance(grid, config)
+    guidance.update(np.array([0, 7]), np.array([7, 0]), np.ones(2, dtype=bool),
+                    facing=None if facing is None else np.array(facing))  # fmt: skip
+    paths = guidance._paths
+    rows = guidance._cell_row[paths.pool[paths.start[1] : paths.start[1] + paths.moves[1] + 1]]
+    assert (rows.max() == 2) == apart
+
+
 def guide_path_turns(facing, turn_cost):
     """The guide path of one robot facing move ``facing`` across an open 7 x 7 floor,
     corner to corner, and how many quarter turns driving it takes."""
@@ -320,7 +339,7 @@ def test_candidate_values_of_nan_leave_pibt_as_it_was():
     "bad",
     [{"vertex_weight": -1}, {"heuristic_weight": 0.5}, {"window": 0}, {"max_searches": -1},
      {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}, {"first_time_limit": -1},
-     {"turn_traffic_weight": -0.5}],
+     {"turn_traffic_weight": -0.5}, {"turn_contraflow_weight": -1.0}],
 )  # fmt: skip
 def test_nonsense_guidance_is_refused(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):
