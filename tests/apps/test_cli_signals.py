@@ -77,3 +77,41 @@ def test_sigterm_after_some_files_names_them_and_leaves_no_half_written_file(
     assert sorted(p.name for p in out.iterdir()) == [
         "congestion.png", "summary.json", "throughput.png"
     ]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ("warehouse_phys.apps.simulate", ["--robots", "2", "--steps", "5", "--no-compare",
+                                          "--quiet"]),
+        ("warehouse_phys.apps.train", ["--env", "grid", "--episodes", "5", "--quiet"]),
+    ],
+    ids=["simulate", "train"],
+)  # fmt: skip
+@pytest.mark.parametrize("moment", ["created", "locked"])
+def test_sigterm_while_the_run_folder_is_opened_leaves_no_folder(
+    tmp_path, capsys, monkeypatch, command, moment
+):
+    """The folder is created, then opened and locked: a SIGTERM right after either step
+    (here sent by the step itself) still removes it."""
+    import importlib
+
+    from warehouse_phys.files import runfolder
+
+    module, argv = command
+    main = importlib.import_module(module).main
+    step = {"created": (runfolder.Path, "mkdir"), "locked": (runfolder.fcntl, "flock")}[moment]
+    real = getattr(*step)
+
+    def then_sigterm(*args, **kwargs):
+        result = real(*args, **kwargs)
+        if not (moment == "created" and args[0].name == "runs"):  # the parent folder
+            signal.raise_signal(signal.SIGTERM)
+        return result
+
+    monkeypatch.setattr(*step, then_sigterm)
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 143
+    prog = "python -m " + module.replace(".apps", "")
+    assert capsys.readouterr().err == f"{prog}: terminated; nothing was written\n"
+    assert list((tmp_path / "runs").iterdir()) == []

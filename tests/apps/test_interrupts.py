@@ -103,3 +103,52 @@ def test_a_signal_outside_a_compile_is_raised_at_once_even_after_numba_is_import
     with pytest.raises(interrupts.Terminated):
         command()
     assert ran == []
+
+
+@needs_main_thread
+def test_a_signal_in_a_deferred_block_is_raised_as_the_outermost_block_ends():
+    ran = []
+
+    @interrupts.stops_on_sigterm
+    def command() -> int:
+        with interrupts.deferred():
+            with interrupts.deferred():
+                signal.raise_signal(signal.SIGTERM)
+                signal.raise_signal(signal.SIGINT)  # a second interrupt adds nothing
+                ran.append("inner")
+            ran.append("outer")
+        ran.append("after")
+        return 0
+
+    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        pytest.skip("Ctrl-C reaches the command's handler only where Python's own has it")
+    with pytest.raises(interrupts.Terminated):
+        command()
+    assert ran == ["inner", "outer"]
+    assert interrupts._deferring == []
+    assert interrupts._pending == []
+
+
+@needs_main_thread
+def test_a_signal_in_a_deferred_block_that_raises_is_raised_after_the_block_error():
+    @interrupts.stops_on_sigterm
+    def command() -> int:
+        with interrupts.deferred():
+            signal.raise_signal(signal.SIGTERM)
+            raise OSError("the block's own error")
+
+    with pytest.raises(interrupts.Terminated) as stopped:
+        command()
+    assert isinstance(stopped.value.__context__, OSError)
+    assert interrupts._deferring == []
+    assert interrupts._pending == []
+
+
+def test_a_deferred_block_without_a_signal_is_a_plain_block():
+    with interrupts.deferred():
+        value = 1
+    assert value == 1
+    with pytest.raises(ValueError, match="inside"), interrupts.deferred():
+        raise ValueError("inside")
+    assert interrupts._deferring == []
+    assert interrupts._pending == []

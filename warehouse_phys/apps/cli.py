@@ -8,10 +8,12 @@ pick an environment with ``--env grid|phys`` and a floor with ``--rows``,
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+import contextlib
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
+from warehouse_phys.apps.interrupts import deferred
 from warehouse_phys.apps.runs import ENVIRONMENTS, Floor
 from warehouse_phys.rules.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
 from warehouse_phys.rules.layouts import FLEET_PRESETS, PRESETS, read_movingai
@@ -163,11 +165,17 @@ def floor_from_layout(name_or_file: str, *, max_steps: int | None = None) -> Flo
     return Floor(layout=tuple(lines), label=path.stem, max_steps=max_steps)
 
 
-def open_run_folder(
+@contextlib.contextmanager
+def opened_run_folder(
     out: Path | None, new: Path, files: Sequence[str], *, overwrite: bool
-) -> RunFolder:
-    """The opened run folder of a command: ``out`` (``--out``; an earlier run's ``files``
-    in it are replaced only with ``overwrite``), or else the new folder ``new``.
+) -> Iterator[RunFolder]:
+    """The run folder of a command, open for the ``with`` block: ``out`` (``--out``; an
+    earlier run's ``files`` in it are replaced only with ``overwrite``), or else the new
+    folder ``new``. It is closed as the block ends; when the block raises (an interrupt
+    included), a folder this run created and wrote nothing into is removed. The folder is
+    created and taken charge of with interrupts deferred
+    (:func:`~warehouse_phys.apps.interrupts.deferred`), so that a SIGTERM or Ctrl-C at
+    that moment cannot leave an empty folder behind.
 
     Raises:
         UsageError: if the folder cannot be used, the message beginning with ``--out``
@@ -175,12 +183,19 @@ def open_run_folder(
     """
     from warehouse_phys.files.runfolder import RunFolder, RunFolderError
 
-    if out is None:
-        folder = RunFolder(new, files, new=True)
-    else:
-        folder = RunFolder(out, files, overwrite=overwrite)
+    folder = (
+        RunFolder(new, files, new=True)
+        if out is None
+        else RunFolder(out, files, overwrite=overwrite)
+    )
     try:
-        folder.open()
-    except RunFolderError as error:
-        raise UsageError(f"--out {error}" if out is not None else str(error)) from None
-    return folder
+        with deferred():
+            try:
+                folder.open()
+            except RunFolderError as error:
+                raise UsageError(f"--out {error}" if out is not None else str(error)) from None
+        yield folder
+    except BaseException:
+        folder.close(remove_if_empty=True)
+        raise
+    folder.close()

@@ -10,15 +10,19 @@ the compile ends. Raised inside the compiler, it can land in one of LLVM's callb
 which prints and drops it (the command then runs on, with SIGTERM ignored), or leave a
 half-built library that fails the compile with an unrelated ``RuntimeError``. A first
 compile of the planners' kernels takes seconds, so this is not a rare window.
+
+A few steps must not be cut in half either: creating a run folder and taking charge of
+removing it again. :func:`deferred` holds an interrupt for the length of such a block.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, ParamSpec
 
 P = ParamSpec("P")
@@ -55,6 +59,24 @@ def stops_on_sigterm(main: Callable[P, int]) -> Callable[P, int]:
     return run
 
 
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """A block that a SIGTERM or Ctrl-C arriving in it does not cut short: the interrupt is
+    held and raised as the block ends, after whatever the block raised (with the main
+    thread's handlers of :func:`stops_on_sigterm`; in other threads, and under other
+    handlers, the block is a plain one). Blocks may nest; the outermost raises."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _deferring.append(True)
+    try:
+        yield
+    finally:
+        _deferring.pop()
+        if not _deferring and _pending:
+            raise _pending.pop()
+
+
 def interruption(interrupt: KeyboardInterrupt) -> tuple[str, int]:
     """What stopped a command, in a word, and its exit status: ``("terminated", 143)``
     for SIGTERM (:class:`Terminated`), ``("interrupted", 130)`` for Ctrl-C."""
@@ -74,7 +96,12 @@ def _interrupt(signum: int, frame: object) -> None:
 
 def _raise_outside_compiler(interrupt: KeyboardInterrupt) -> None:
     """Raise ``interrupt`` now, or, while this thread holds numba's compiler lock, as the
-    lock is given back (the first interrupt held wins; later ones add nothing)."""
+    lock is given back (the first interrupt held wins; later ones add nothing). Inside a
+    :func:`deferred` block it is held for the block's end instead."""
+    if _deferring:
+        if not _pending:
+            _pending.append(interrupt)
+        return
     compiler = sys.modules.get("numba.core.compiler_lock")  # numba imported: it may compile
     if compiler is None or not compiler.global_compiler_lock.is_locked():
         raise interrupt
@@ -84,6 +111,11 @@ def _raise_outside_compiler(interrupt: KeyboardInterrupt) -> None:
         _held.append(_held_type()(interrupt))
         event.register(_COMPILER_LOCK_EVENT, _held[0])
 
+
+#: One entry for each :func:`deferred` block the main thread is in.
+_deferring: list[bool] = []
+#: The interrupt held until the outermost :func:`deferred` block ends (at most one).
+_pending: list[KeyboardInterrupt] = []
 
 #: The interrupt held until the compile ends, as its numba listener (at most one).
 _held: list[Any] = []

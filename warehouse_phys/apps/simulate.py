@@ -72,7 +72,7 @@ from warehouse_phys.apps.cli import (
     UsageError,
     bounded_int,
     floor_from_layout,
-    open_run_folder,
+    opened_run_folder,
     written_note,
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
@@ -587,11 +587,8 @@ def main(argv: list[str] | None = None) -> int:
             f"simulate-{label}-{env.num_robots}-{Path(args.policy).stem}-seed{args.seed}-"
             f"{time.strftime('%Y%m%d-%H%M%S')}"
         )
-        folder = open_run_folder(
-            args.out, DEFAULT_RUNS_DIR / name, RUN_FILES, overwrite=args.overwrite
-        )
-        finished = False
-        try:
+        new = DEFAULT_RUNS_DIR / name
+        with opened_run_folder(args.out, new, RUN_FILES, overwrite=args.overwrite) as folder:
             result, frames, record = _run(args, env, policy, label)
             if record is not None:  # before the baselines run the errand list again
                 instance, errands = env.instance, env.errands
@@ -604,9 +601,6 @@ def main(argv: list[str] | None = None) -> int:
             if _compare(args, env):
                 runs |= run_baselines(env, steps=args.steps, seed=args.seed, skip=result.policy)
             _write(folder, env, result, frames, runs)
-            finished = True
-        finally:
-            folder.close(remove_if_empty=not finished)
     except (UsageError, RunFolderError) as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2

@@ -57,7 +57,7 @@ from warehouse_phys.apps.cli import (
     add_robots_argument,
     bounded_int,
     floor_from_args,
-    open_run_folder,
+    opened_run_folder,
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
 from warehouse_phys.apps.runs import (
@@ -336,18 +336,13 @@ def _in_run_folder(
     with a progress bar over ``episodes``, and close the folder (removing it if the
     work did not finish and wrote nothing)."""
     new = _new_run_dir(kind, label, args.seed, time.localtime())  # unless --out names one
-    folder = open_run_folder(args.out, new, RUN_FILES, overwrite=args.overwrite)
-    run.append(folder)
-    finished = False
-    try:
+    with opened_run_folder(args.out, new, RUN_FILES, overwrite=args.overwrite) as folder:
+        run.append(folder)
         progress = _progress_bar(episodes, description, disable=args.quiet)
         try:
             outcome = work(folder, lambda _: progress.update())
         finally:
             progress.close()
-        finished = True
-    finally:
-        folder.close(remove_if_empty=not finished)
     return folder, outcome
 
 
