@@ -19,7 +19,12 @@ from warehouse_phys.envs import fleet
 from warehouse_phys.rl.fleet_planners import guided_pibt_policy, planner_policy
 from warehouse_phys.rules import graph_search
 from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.guidance import GuidanceConfig, GuidedPIBT, TrafficGuidance
+from warehouse_phys.rules.guidance import (
+    MAX_LANE_PATHS,
+    GuidanceConfig,
+    GuidedPIBT,
+    TrafficGuidance,
+)
 from warehouse_phys.rules.headings import resolve_turning_moves
 from warehouse_phys.rules.planning import PIBT
 from warehouse_phys.rules.traffic import moves_refused_by_floor, resolve_moves
@@ -206,13 +211,39 @@ def test_contraflow_costs_turning_robots_more(turn_contraflow_weight, facing, ap
     turning robot's own weight (``turn_contraflow_weight``, 2 by default) the second
     takes the bottom aisle, turns and all, rather than meet the first head-on."""
     grid = WarehouseGrid.from_layout(TWO_AISLES)
-    config = GuidanceConfig(contraflow_weight=0.1, turn_contraflow_weight=turn_contraflow_weight)
+    config = GuidanceConfig(contraflow_weight=0.1, turn_contraflow_weight=turn_contraflow_weight,
+                            turn_lane_paths=0)  # fmt: skip
     guidance = TrafficGuidance(grid, config)
     guidance.update(np.array([0, 7]), np.array([7, 0]), np.ones(2, dtype=bool),
                     facing=None if facing is None else np.array(facing))  # fmt: skip
     paths = guidance._paths
     rows = guidance._cell_row[paths.pool[paths.start[1] : paths.start[1] + paths.moves[1] + 1]]
     assert (rows.max() == 2) == apart
+
+
+@pytest.mark.parametrize(
+    ("lane_paths", "facing", "kept_to_the_lanes"),
+    [(2, [2], True), (1, [2], True), (0, [2], False), (2, None, False)],
+)
+def test_turning_robots_keep_to_the_one_way_lanes(lane_paths, facing, kept_to_the_lanes):
+    """On the two-aisle floor the lanes run west along the top aisle, south, east along the
+    bottom and north (:func:`~warehouse_phys.rules.lanes.one_way_lanes`). A turning robot
+    crossing from the top left to the top right goes round by the bottom aisle, 11 moves
+    and 3 turns, rather than drive 7 moves against the top aisle's lane; without lanes, or
+    as a four-direction robot (whose guidance lays none), it takes the top aisle. Its
+    flow holds the lanes' phantom paths besides its own path."""
+    grid = WarehouseGrid.from_layout(TWO_AISLES)
+    guidance = TrafficGuidance(grid, GuidanceConfig(turn_lane_paths=lane_paths))
+    facing = None if facing is None else np.array(facing)
+    guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=facing)
+    paths = guidance._paths
+    cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1]
+    assert (guidance._cell_row[cells].max() == 2) == kept_to_the_lanes
+    assert paths.moves[0] == (11 if kept_to_the_lanes else 7)
+    lanes = 0 if facing is None else lane_paths * 14  # 6 + 6 aisle cells, 2 at the ends
+    assert guidance.flow.sum() == lanes + paths.moves[0]
+    guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=facing)
+    assert guidance.flow.sum() == lanes + paths.moves[0]  # laid once
 
 
 def guide_path_turns(facing, turn_cost):
@@ -278,31 +309,56 @@ def test_golden_plans_on_the_two_aisle_floor():
     assert seen == GOLDEN_TWO_AISLES
 
 
-def test_golden_turning_plans_on_the_two_aisle_floor():
-    """The same four robots turning to drive, facing their way: each pair drives its
-    own aisle without a turn; at the left, robot_3, on its goal, turns north and yields
-    up the left column and on along the top, so that robot_2 reaches its goal at the top
-    left."""
+def turning_plans_on_the_two_aisle_floor(config, steps):
+    """Four turning robots over the two-aisle floor, two each way, facing their way: the
+    plans step by step and where the robots end."""
     grid = WarehouseGrid.from_layout(TWO_AISLES)
     cells = np.array([(0, 0), (0, 1), (2, 7), (2, 6)])
     goals = np.array([(0, 7), (2, 7), (0, 0), (2, 0)])
     headings = np.array([0, 0, 2, 2])  # east, east, west, west
-    planner = GuidedPIBT(grid, seed=0, moves="rotate")
+    planner = GuidedPIBT(grid, seed=0, moves="rotate", config=config)
     seen = []
-    for _ in range(11):
+    for _ in range(steps):
         actions = planner.plan(cells, goals, headings=headings)
         cells, headings, refused = resolve_turning_moves(grid, cells, headings, actions)
         assert not refused.any()
         seen.append(actions.tolist())
+    return seen, cells.tolist()
+
+
+def test_golden_turning_plans_on_the_two_aisle_floor_without_lanes():
+    """Without lanes each pair drives its own aisle without a turn; at the left, robot_3,
+    on its goal, turns north and yields up the left column and on along the top, so that
+    robot_2 reaches its goal at the top left."""
+    seen, cells = turning_plans_on_the_two_aisle_floor(GuidanceConfig(turn_lane_paths=0), 11)
     assert seen == GOLDEN_TURNING_TWO_AISLES
-    assert cells.tolist() == [[0, 7], [2, 7], [0, 0], [0, 1]]
+    assert cells == [[0, 7], [2, 7], [0, 0], [0, 1]]
 
 
-#: The actions of :func:`test_golden_turning_plans_on_the_two_aisle_floor` (0 forward,
+def test_golden_turning_plans_on_the_two_aisle_floor_keep_to_the_lanes():
+    """With the lanes (the default; they run round the floor anticlockwise) no robot
+    drives against one: robot_0 and robot_2 turn and go round by the left and the right
+    column, robot_1 and robot_3, behind them, turn round and follow the lanes the long way,
+    and robot_2 is on its goal at the top left after 11 steps, robot_0 on its at the top
+    right after 14."""
+    seen, cells = turning_plans_on_the_two_aisle_floor(GuidanceConfig(), 14)
+    assert seen == GOLDEN_TURNING_TWO_AISLES_LANES
+    assert cells == [[0, 7], [2, 1], [0, 0], [0, 2]]
+
+
+#: The actions of :func:`test_golden_turning_plans_on_the_two_aisle_floor_without_lanes` (0 forward,
 #: 1 clockwise, 2 counter-clockwise, 3 wait), step by step.
 GOLDEN_TURNING_TWO_AISLES = [
     [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0],
     [3, 1, 3, 1], [0, 0, 0, 0], [3, 0, 1, 0], [3, 3, 0, 1], [3, 3, 0, 0],
+]  # fmt: skip
+
+
+#: The plans of :func:`test_golden_turning_plans_on_the_two_aisle_floor_keep_to_the_lanes`.
+GOLDEN_TURNING_TWO_AISLES_LANES = [
+    [1, 0, 1, 0], [0, 0, 0, 1], [0, 0, 0, 1], [2, 1, 2, 0], [0, 1, 0, 0], [0, 0, 0, 2],
+    [0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 2], [0, 2, 0, 0], [0, 0, 0, 0], [2, 0, 3, 0],
+    [0, 2, 3, 0], [0, 0, 3, 0],
 ]  # fmt: skip
 
 
@@ -339,17 +395,19 @@ def test_candidate_values_of_nan_leave_pibt_as_it_was():
     "bad",
     [{"vertex_weight": -1}, {"heuristic_weight": 0.5}, {"window": 0}, {"max_searches": -1},
      {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}, {"first_time_limit": -1},
-     {"turn_traffic_weight": -0.5}, {"turn_contraflow_weight": -1.0}],
+     {"turn_traffic_weight": -0.5}, {"turn_contraflow_weight": -1.0},
+     {"turn_lane_paths": -1}, {"turn_lane_paths": MAX_LANE_PATHS + 1},
+     {"turn_lane_paths": 1.5}, {"turn_lane_paths": True}],
 )  # fmt: skip
 def test_nonsense_guidance_is_refused(bad):
-    with pytest.raises(ValueError, match=next(iter(bad))):
+    with pytest.raises((ValueError, TypeError), match=next(iter(bad))):
         GuidanceConfig(**bad)
 
 
 @pytest.mark.parametrize("facing", [np.array([4]), np.array([-1]), np.array([0, 1])])
 def test_a_facing_that_is_not_one_move_a_robot_is_refused_and_nothing_changes(facing):
     grid = WarehouseGrid.from_layout(TWO_AISLES)
-    guidance = TrafficGuidance(grid)
+    guidance = TrafficGuidance(grid, GuidanceConfig(turn_lane_paths=0))
     with pytest.raises(ValueError, match="facing"):
         guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=facing)
     assert not guidance.flow.any()

@@ -15,7 +15,7 @@ from tests.rules.test_guidance import TWO_AISLES, play
 from warehouse_phys.envs import fleet
 from warehouse_phys.rl.fleet_planners import planner_policy
 from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.guidance import GuidedPIBT
+from warehouse_phys.rules.guidance import GuidanceConfig, GuidedPIBT
 from warehouse_phys.rules.headings import TurnAction, resolve_turning_moves
 from warehouse_phys.rules.operations import OperationPIBT, local_offsets, operation_table
 
@@ -105,15 +105,16 @@ def test_a_robot_turns_and_drives_round_a_corner_to_its_goal():
 
 
 def test_golden_plans_over_operations_on_the_two_aisle_floor():
-    """The four robots of the guided planner's golden turning case, planned over
-    operations with the guidance, recorded: each pair drives its own aisle; robot_1 waits
+    """The four robots of the guided planner's golden turning case without lanes, planned
+    over operations with the guidance, recorded: each pair drives its own aisle; robot_1 waits
     for robot_0 to clear the top right corner, then turns down to its goal; robot_3 steps
     up the left column out of robot_2's way, ending where the one-step planner's does."""
     grid = WarehouseGrid.from_layout(TWO_AISLES)
     cells = np.array([(0, 0), (0, 1), (2, 7), (2, 6)])
     goals = np.array([(0, 7), (2, 7), (0, 0), (2, 0)])
     headings = np.array([0, 0, 2, 2])  # east, east, west, west
-    planner = GuidedPIBT(grid, seed=0, moves="rotate", operations=3)
+    config = GuidanceConfig(turn_lane_paths=0)
+    planner = GuidedPIBT(grid, seed=0, moves="rotate", operations=3, config=config)
     seen = []
     for _ in range(len(GOLDEN_OPERATIONS_TWO_AISLES)):
         actions = planner.plan(cells, goals, headings=headings)

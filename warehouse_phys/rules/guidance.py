@@ -24,8 +24,13 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   the weight times the guide paths leaving the cell); on MR23-I-10 with 0.5, 29.65
   errands a step over 5,000 steps against 28.45 with 0, at a cheaper step. Meeting a
   robot head-on, a turning robot must turn round or wait, so contraflow costs it
-  ``turn_contraflow_weight`` (2 by default) instead of ``contraflow_weight`` (1): 30.13
-  errands a step on MR23-I-10 against 29.65.
+  ``turn_contraflow_weight`` (4 by default) instead of ``contraflow_weight`` (1).
+- One-way lanes for turning robots: every cell of a one-cell-wide corridor carries
+  ``turn_lane_paths`` (2) phantom guide paths along its lane
+  (:func:`~warehouse_phys.rules.lanes.one_way_lanes`: neighbouring corridors run
+  opposite ways), laid in the flow at the first update with ``facing``, so that a guide
+  path against a lane pays that contraflow and robots going opposite ways take
+  neighbouring corridors instead of meeting in one. The README has the figures.
 - Following (``follow=True``): a candidate cell of a robot is valued by its guide path,
   the moves left along it from the path cell it is on or beside (one more beside), as
   guided PIBT does; so PIBT moves it along its path, and pushes and backtracks as ever.
@@ -57,9 +62,15 @@ from warehouse_phys.rules import graph_search
 from warehouse_phys.rules.distances import DistanceMaps
 from warehouse_phys.rules.grid import WarehouseGrid
 from warehouse_phys.rules.headings import HEADING_MOVES
+from warehouse_phys.rules.lanes import NO_LANE, one_way_lanes
 from warehouse_phys.rules.operations import OperationPIBT
 from warehouse_phys.rules.planning import PIBT
 from warehouse_phys.rules.traffic import FLEET_ACTIONS, WAIT, neighbour_table
+
+
+#: Most phantom guide paths a lane may carry (``turn_lane_paths``); far fewer already
+#: price driving against a lane above any way round.
+MAX_LANE_PATHS = 1000
 
 
 @dataclass(frozen=True)
@@ -81,7 +92,12 @@ class GuidanceConfig:
     #: ``contraflow_weight`` for a turning robot's guide path (None: the same): a turning
     #: robot that meets another head-on must turn round (two turns) or wait, so paths
     #: against the traffic cost it more.
-    turn_contraflow_weight: float | None = 2.0
+    turn_contraflow_weight: float | None = 4.0
+    #: One-way lanes for turning robots: phantom guide paths laid along the lane of every
+    #: cell of a one-cell-wide corridor (:func:`~warehouse_phys.rules.lanes.one_way_lanes`),
+    #: so that a guide path against a lane pays the contraflow of this many paths (0: no
+    #: lanes).
+    turn_lane_paths: int = 2
     #: Whether robots follow their guide paths (else distances with a flow tie-break).
     follow: bool = True
     #: Robots whose guide path is searched anew each step besides those that need one.
@@ -110,6 +126,12 @@ class GuidanceConfig:
             raise ValueError(
                 f"turn_contraflow_weight must be >= 0 or None, got {self.turn_contraflow_weight!r}"
             )
+        lane_paths = self.turn_lane_paths
+        if isinstance(lane_paths, bool) or not isinstance(lane_paths, int | np.integer):
+            raise TypeError(f"turn_lane_paths must be an int, got {self.turn_lane_paths!r}")
+        if not 0 <= self.turn_lane_paths <= MAX_LANE_PATHS:
+            raise ValueError(f"turn_lane_paths must be in 0..{MAX_LANE_PATHS}, "
+                             f"got {self.turn_lane_paths!r}")  # fmt: skip
         if not self.heuristic_weight >= 1:
             raise ValueError(f"heuristic_weight must be >= 1, got {self.heuristic_weight!r}")
         if self.turn_cost is not None and not self.turn_cost >= 0:
@@ -170,8 +192,13 @@ class TrafficGuidance:
         self._floor_graph = graph_search.move_graph(self._free)
         self._graph = self._floor_graph
         n = len(free_cells)
-        #: How many guide paths leave each cell (map column) by each move.
+        #: How many guide paths leave each cell (map column) by each move; for turning
+        #: robots, the lanes' phantom paths (``config.turn_lane_paths``) included.
         self.flow = np.zeros((n, 4), dtype=np.int32)
+        lanes = one_way_lanes(self._free)
+        self._lane_columns = np.flatnonzero(lanes != NO_LANE)
+        self._lane_moves = lanes[self._lane_columns].astype(np.int64)
+        self._lanes_laid = False
         self._scratch = np.zeros((n, 4), dtype=np.int32)
         self._g_cost = np.zeros(n, dtype=np.float64)
         self._path = np.empty(n, dtype=np.int32)
@@ -237,6 +264,9 @@ class TrafficGuidance:
                                   status)  # fmt: skip
         status[~active] = 1
         self._facing = facing
+        if facing is not None and not self._lanes_laid:  # a turning fleet: lay its lanes
+            self.flow[self._lane_columns, self._lane_moves] += self.config.turn_lane_paths
+            self._lanes_laid = True
         self._search_paths(column, status, active, deadline)
         self._guided = status == 0
         return self._values(here, goal, column, self._guided, distances)
