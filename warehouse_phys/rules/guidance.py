@@ -67,7 +67,6 @@ from warehouse_phys.rules.operations import OperationPIBT
 from warehouse_phys.rules.planning import PIBT
 from warehouse_phys.rules.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 
-
 #: Most phantom guide paths a lane may carry (``turn_lane_paths``); far fewer already
 #: price driving against a lane above any way round.
 MAX_LANE_PATHS = 1000
