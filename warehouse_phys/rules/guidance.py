@@ -30,7 +30,9 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   (:func:`~warehouse_phys.rules.lanes.one_way_lanes`: neighbouring corridors run
   opposite ways), laid in the flow at the first update with ``facing``, so that a guide
   path against a lane pays that contraflow and robots going opposite ways take
-  neighbouring corridors instead of meeting in one. The README has the figures.
+  neighbouring corridors instead of meeting in one (every price of the flow sees them: a
+  move into a lane's cell, and a turn on one, cost a little more too). The README has
+  the figures.
 - Following (``follow=True``): a candidate cell of a robot is valued by its guide path,
   the moves left along it from the path cell it is on or beside (one more beside), as
   guided PIBT does; so PIBT moves it along its path, and pushes and backtracks as ever.
