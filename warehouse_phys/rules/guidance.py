@@ -129,10 +129,10 @@ class GuidanceConfig:
             )
         lane_paths = self.turn_lane_paths
         if isinstance(lane_paths, bool) or not isinstance(lane_paths, int | np.integer):
-            raise TypeError(f"turn_lane_paths must be an int, got {self.turn_lane_paths!r}")
-        if not 0 <= self.turn_lane_paths <= MAX_LANE_PATHS:
+            raise TypeError(f"turn_lane_paths must be an int, got {lane_paths!r}")
+        if not 0 <= lane_paths <= MAX_LANE_PATHS:
             raise ValueError(f"turn_lane_paths must be in 0..{MAX_LANE_PATHS}, "
-                             f"got {self.turn_lane_paths!r}")  # fmt: skip
+                             f"got {lane_paths!r}")  # fmt: skip
         if not self.heuristic_weight >= 1:
             raise ValueError(f"heuristic_weight must be >= 1, got {self.heuristic_weight!r}")
         if self.turn_cost is not None and not self.turn_cost >= 0:
