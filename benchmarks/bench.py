@@ -53,8 +53,8 @@ import warehouse_phys
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.physics import PhysicsConfig, PhysicsWorld
 from warehouse_phys.rl.qlearning import QLearningConfig, train
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.layouts import suggested_time_limit
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layouts import suggested_time_limit
 
 FROZEN_LAKE = "FrozenLake-v1"
 GRID_ID = warehouse_phys.GRID_ENV_ID
@@ -440,7 +440,7 @@ def planner_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
     """The PIBT planner's plans alone (no env step between them: the same situation
     planned again) on the ``warehouse`` preset, lifelong; counts robot-steps planned."""
     from warehouse_phys.envs.fleet import parallel_env
-    from warehouse_phys.rules.planning import pibt_policy
+    from warehouse_phys.planners.pibt import pibt_policy
 
     env = parallel_env(num_robots=robots, layout="warehouse", on_delivery="new_package")
     observations, infos = env.reset(seed=0)

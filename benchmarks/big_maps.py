@@ -2,13 +2,13 @@
 
 Each map runs in a fresh process on one core (numpy's threads held to one): a lifelong
 fleet (``on_delivery="new_package"``) of 10,000 robots planned by PIBT
-(:func:`warehouse_phys.rules.planning.pibt_policy`), as ``simulate`` runs it. Measured in
+(:func:`warehouse_phys.planners.pibt.pibt_policy`), as ``simulate`` runs it. Measured in
 CPU time (``time.process_time``):
 
 - ours alone for ``--steps`` steps: the floor's build, the reset (the first packages'
   distances), the first step and the later steps (median, slowest), deliveries a step,
   the distance maps kept and the goals guided by paths
-  (:class:`warehouse_phys.rules.distances.DistanceMaps`), the process's peak resident
+  (:class:`warehouse_phys.planners.distances.DistanceMaps`), the process's peak resident
   memory up to then;
 - then **the reference**, a plain numpy implementation in the same process:
   - *first step*: the distance maps of every robot's first package by a batched
@@ -54,10 +54,10 @@ import numpy as np
 
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
-from warehouse_phys.rules.distances import DistanceMaps
-from warehouse_phys.rules.graph_search import move_graph
-from warehouse_phys.rules.layouts import make_grid
-from warehouse_phys.rules.planning import pibt_policy
+from warehouse_phys.planners.distances import DistanceMaps
+from warehouse_phys.planners.graph_search import move_graph
+from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.world.layouts import make_grid
 
 SHARED_MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps"
 #: The maps run, by file stem: the issue's list (the field's big maps) and ours.

@@ -5,19 +5,19 @@ distinct random cells of a floor (seed 0), each with a package drawn among the f
 target cells (``grid.target_indices``, never the robot's own cell); a robot whose move
 ends on its package has delivered it (an *errand*) and at once gets a new one (a seeded
 draw). Every tick, delays are drawn as the League of Robot Runners (LoRR) 2026 draws them
-(:class:`~warehouse_phys.rules.delays.DelayGenerator`: bernoulli events of chance
+(:class:`~warehouse_phys.execution.delays.DelayGenerator`: bernoulli events of chance
 ``pDelay`` a robot a tick, durations uniform in 1-20 ticks, delay seed 0), the same
 delays for both ways of executing:
 
 - **executor**: every ``plan_every`` ticks (one move's ticks by default) a window of
-  ``window`` steps of PIBT (:func:`~warehouse_phys.rules.windows.pibt_window`) from
-  :meth:`~warehouse_phys.rules.executor.Executor.plan_cells` goes to the
-  :class:`~warehouse_phys.rules.executor.Executor`, whose GO/STOP and the delays drive
+  ``window`` steps of PIBT (:func:`~warehouse_phys.execution.windows.pibt_window`) from
+  :meth:`~warehouse_phys.execution.executor.Executor.plan_cells` goes to the
+  :class:`~warehouse_phys.execution.executor.Executor`, whose GO/STOP and the delays drive
   the grid twin of robots between cells
-  (:class:`~warehouse_phys.rules.async_grid.AsyncGrid`) tick by tick. Each tick the twin
+  (:class:`~warehouse_phys.execution.async_grid.AsyncGrid`) tick by tick. Each tick the twin
   is checked: vertex conflicts (two centres closer than the executor's ``min_gap`` during
-  the tick, :func:`~warehouse_phys.rules.async_grid.gap_conflicts`), swap conflicts
-  (:func:`~warehouse_phys.rules.async_grid.swap_conflicts`) and any disagreement with the
+  the tick, :func:`~warehouse_phys.execution.async_grid.gap_conflicts`), swap conflicts
+  (:func:`~warehouse_phys.execution.async_grid.swap_conflicts`) and any disagreement with the
   executor's own cells (the moves that ended, the cells held) are counted.
 - **lock-step** (the baseline, as 2023 simulators ran plans): one joint PIBT step at a
   time; the step takes ``ticks_per_move`` ticks and every robot waits for a delayed one:
@@ -30,7 +30,7 @@ delays for both ways of executing:
 
 Both plan with the same planner, PIBT with corner follows, seed 0; the executor's
 windows have their rotations broken when moves take several ticks (robots in mid-move
-cannot rotate: :func:`~warehouse_phys.rules.windows.without_rotations`), and it plans
+cannot rotate: :func:`~warehouse_phys.execution.windows.without_rotations`), and it plans
 robots that a delay still holds at the next tick to wait, first, so that the others plan
 round them (``plan_around_delays``).
 
@@ -51,7 +51,7 @@ time a move takes):
   longest such run of any robot is reported too, and the longest any robot went without
   advancing for any reason (planned waits included: the planner's standstills);
 - CPU time (``time.process_time``, one core): the executor's tick
-  (:meth:`~warehouse_phys.rules.execution.Execution.tick`: planning every
+  (:meth:`~warehouse_phys.execution.runner.Execution.tick`: planning every
   ``plan_every`` ticks, the delays, ``Executor.add_plan`` and ``Executor.step``), the
   grid twin and the checks, and the whole simulation a move's duration of simulated
   time (``ticks_per_move`` ticks; planning, executor, delays, twin and errands; the
@@ -68,7 +68,7 @@ dt``) per CPU second of the executor's ticks, the bodies and the errands.
 **What differs from LoRR 2026:** four-direction robots that do not turn (LoRR's robots
 turn in place, a turn being an action of ``agentCounter`` ticks too); packages drawn at
 random over the floor, not LoRR's task lists; plain PIBT with no guidance; the delays
-follow LoRR's model but not its random stream (see :mod:`warehouse_phys.rules.delays`).
+follow LoRR's model but not its random stream (see :mod:`warehouse_phys.execution.delays`).
 
 The default grid: ``pDelay`` in {0, 0.0005, 0.002, 0.005, 0.02}, ``ticks_per_move`` 3
 and 10, both ways of executing, kiva-33-46 with 192 robots and warehouse-large-140-500
@@ -102,23 +102,23 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from warehouse_phys.files.atomic import atomic_write, atomic_write_text
-from warehouse_phys.physics import PhysicsConfig
-from warehouse_phys.physics.batched import BatchedPhysicsWorld
-from warehouse_phys.physics.ticking import default_tick_steps, required_min_gap, tick_fractions
-from warehouse_phys.rules.async_grid import (
+from warehouse_phys.execution.async_grid import (
     AsyncGrid,
     gap_conflicts,
     swap_conflicts,
     vertex_conflicts,
 )
-from warehouse_phys.rules.delays import DelayConfig, DelayGenerator
-from warehouse_phys.rules.execution import Execution
-from warehouse_phys.rules.executor import DEFAULT_MIN_GAP, Executor, TickReport
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.layouts import read_movingai
-from warehouse_phys.rules.planning import PIBT
-from warehouse_phys.rules.traffic import neighbour_table
+from warehouse_phys.execution.delays import DelayConfig, DelayGenerator
+from warehouse_phys.execution.executor import DEFAULT_MIN_GAP, Executor, TickReport
+from warehouse_phys.execution.runner import Execution
+from warehouse_phys.files.atomic import atomic_write, atomic_write_text
+from warehouse_phys.physics import PhysicsConfig
+from warehouse_phys.physics.batched import BatchedPhysicsWorld
+from warehouse_phys.physics.ticking import default_tick_steps, required_min_gap, tick_fractions
+from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layouts import read_movingai
+from warehouse_phys.world.traffic import neighbour_table
 
 SHARED_MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps"
 MODES = ("lock-step", "executor")

@@ -1,6 +1,6 @@
 """The League of Robot Runners' own instances: our figures beside the published ones.
 
-Each run plays the PIBT planner (:func:`warehouse_phys.rules.planning.pibt_policy`) on one
+Each run plays the PIBT planner (:func:`warehouse_phys.planners.pibt.pibt_policy`) on one
 instance of ``../shared/lorr`` for 5,000 steps, as the competition counts, in a fresh
 process on one core (numpy's threads held to one), and measures:
 
@@ -44,8 +44,8 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
-from warehouse_phys.rules.instances import PUBLISHED_FIGURES, read_instance
-from warehouse_phys.rules.planning import pibt_policy
+from warehouse_phys.lorr.instances import PUBLISHED_FIGURES, read_instance
+from warehouse_phys.planners.pibt import pibt_policy
 
 LORR = Path(__file__).resolve().parents[2] / "shared" / "lorr"
 #: name -> (instance path under ../shared/lorr, move model)

@@ -13,7 +13,7 @@ Three measurements, one core (numpy's threads held to one), CPU time (``time.pro
   its two-stop tasks through the built-in scheduler, counted as tasks a step too;
   ``--scheduler makespan`` weighs each task's own length, as the default entry does).
   Beside them, the instance's congestion-free flow
-  (:mod:`warehouse_phys.rules.task_flow`): what its errand list and scheduler would
+  (:mod:`warehouse_phys.lorr.task_flow`): what its errand list and scheduler would
   finish if robots never met, so a planner's figure says how much traffic took.
 - **kiva-33-46** (POGEMA's lifelong setting: 256 steps, seeds 0-4) at 32 to 256 robots:
   deliveries a step, the mean over the seeds, the planners interleaved seed by seed on
@@ -61,10 +61,10 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 from warehouse_phys.envs import lorr
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
+from warehouse_phys.lorr.instances import read_instance
+from warehouse_phys.lorr.scheduling import SCHEDULERS, scheduler_named
+from warehouse_phys.lorr.task_flow import congestion_free_flow
 from warehouse_phys.rl.fleet_planners import PLANNER_OPERATIONS, PLANNERS, planner_policy
-from warehouse_phys.rules.instances import read_instance
-from warehouse_phys.rules.scheduling import SCHEDULERS, scheduler_named
-from warehouse_phys.rules.task_flow import congestion_free_flow
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 MR23 = SHARED / "lorr" / "2023-main-warehouse" / "MR23-I-10.json"
@@ -154,7 +154,7 @@ def lorr_run(
 
 
 def flow_run(instance: Path, steps: int, scheduler: str | None) -> dict[str, object]:
-    """The congestion-free flow of ``instance`` (:mod:`warehouse_phys.rules.task_flow`):
+    """The congestion-free flow of ``instance`` (:mod:`warehouse_phys.lorr.task_flow`):
     what its errand list and scheduler would finish if robots never met."""
     loaded = read_instance(instance)
     flow = congestion_free_flow(loaded, steps, **scheduler_option(scheduler))

@@ -6,7 +6,8 @@ Importing the package registers its Gymnasium environments (see
 ``gym.make("warehouse_phys:warehouse-robot-phys-v0")`` imports the package itself.
 
 The package is built in floors, each importing only those below it (ARCHITECTURE.md):
-``files``, ``rules``, ``physics``, ``drawing``, ``envs``, ``rl``, ``viz``, ``apps``.
+``files``, ``world``, ``planners``, ``execution``, ``lorr``, ``physics``, ``drawing``,
+``envs``, ``rl``, ``viz``, ``apps``.
 The modules of the earlier flat layout still import under their old names
 (``warehouse_phys.grid``, ``warehouse_phys.fleet``, ...; see :mod:`warehouse_phys._moved`).
 """
@@ -23,8 +24,8 @@ from warehouse_phys.envs.registration import (
 )
 from warehouse_phys.envs.single import WarehouseGridEnv, WarehousePhysicsEnv
 from warehouse_phys.physics.config import SNAP_ERROR_BOUND, PhysicsConfig
-from warehouse_phys.rules.grid import Action, Cell, WarehouseGrid
-from warehouse_phys.rules.layouts import PRESETS, preset_ids
+from warehouse_phys.world.grid import Action, Cell, WarehouseGrid
+from warehouse_phys.world.layouts import PRESETS, preset_ids
 
 __version__ = "0.1.0"
 

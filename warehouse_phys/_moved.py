@@ -1,6 +1,6 @@
-"""The package's old module paths, which still import: ``warehouse_phys.grid`` is
-:mod:`warehouse_phys.rules.grid`, the same module object, and so on for every module
-that moved into a subpackage (see ARCHITECTURE.md).
+"""The package's old module paths, which still import: ``warehouse_phys.grid`` and
+``warehouse_phys.rules.grid`` are :mod:`warehouse_phys.world.grid`, the same module
+object, and so on for every module that moved into a subpackage (see ARCHITECTURE.md).
 
 A finder on :data:`sys.meta_path` answers an import of an old path with the module at
 its new one, so code and notebooks written against the flat layout keep working,
@@ -16,17 +16,47 @@ import importlib.machinery
 import sys
 from types import ModuleType
 
-#: Old module (under ``warehouse_phys.``) -> where it lives now.
+#: The ``rules`` floor's modules -> the packages it was split into (the world, the
+#: planners, execution in time, the League of Robot Runners).
+RULES: dict[str, str] = {
+    "grid": "world.grid",
+    "cells": "world.cells",
+    "batched": "world.batched",
+    "layouts": "world.layouts",
+    "traffic": "world.traffic",
+    "headings": "world.headings",
+    "placement": "world.placement",
+    "planning": "planners.pibt",
+    "guidance": "planners.guidance",
+    "lanes": "planners.lanes",
+    "operations": "planners.operations",
+    "distances": "planners.distances",
+    "graph_search": "planners.graph_search",
+    "ticks": "execution.ticks",
+    "delays": "execution.delays",
+    "executor": "execution.executor",
+    "async_grid": "execution.async_grid",
+    "windows": "execution.windows",
+    "execution": "execution.runner",
+    "instances": "lorr.instances",
+    "errands": "lorr.errands",
+    "scheduling": "lorr.scheduling",
+    "task_flow": "lorr.task_flow",
+    "lorr_output": "lorr.output",
+}
+
+#: Old module (under ``warehouse_phys.``) -> where it lives now: the flat layout's modules
+#: and the ``rules`` floor's.
 MOVED: dict[str, str] = {
     "atomic": "files.atomic",
     "npzfile": "files.npzfile",
     "runfolder": "files.runfolder",
-    "grid": "rules.grid",
-    "batched": "rules.batched",
-    "layouts": "rules.layouts",
-    "traffic": "rules.traffic",
-    "distances": "rules.distances",
-    "planning": "rules.planning",
+    "grid": "world.grid",
+    "batched": "world.batched",
+    "layouts": "world.layouts",
+    "traffic": "world.traffic",
+    "distances": "planners.distances",
+    "planning": "planners.pibt",
     "batched_physics": "physics.batched",
     "render": "drawing.render",
     "animation": "drawing.animation",
@@ -41,7 +71,11 @@ MOVED: dict[str, str] = {
     "recording": "viz.recording",
     "cli": "apps.cli",
     "runs": "apps.runs",
+    **{f"rules.{name}": home for name, home in RULES.items()},
 }
+
+#: Old packages that hold nothing now but their moved modules' old paths.
+OLD_PACKAGES = ("rules",)
 
 
 class _MovedModuleFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
@@ -51,17 +85,22 @@ class _MovedModuleFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         self, fullname: str, path: object = None, target: object = None
     ) -> importlib.machinery.ModuleSpec | None:
         package, _, name = fullname.partition(".")
-        if package != "warehouse_phys" or name not in MOVED:
+        if package != "warehouse_phys" or (name not in MOVED and name not in OLD_PACKAGES):
             return None
-        return importlib.machinery.ModuleSpec(fullname, self)
+        return importlib.machinery.ModuleSpec(fullname, self, is_package=name in OLD_PACKAGES)
 
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
-        module = importlib.import_module(f"warehouse_phys.{MOVED[spec.name.partition('.')[2]]}")
+        name = spec.name.partition(".")[2]
+        if name in OLD_PACKAGES:  # an empty package: its old modules are found by this finder
+            self._spec = None
+            return ModuleType(spec.name, f"The old home of {sorted(RULES)} (see _moved).")
+        module = importlib.import_module(f"warehouse_phys.{MOVED[name]}")
         self._spec = module.__spec__  # the import system sets the old name's spec next
         return module
 
     def exec_module(self, module: ModuleType) -> None:
-        module.__spec__ = self._spec  # the module keeps its own spec (its real name)
+        if self._spec is not None:
+            module.__spec__ = self._spec  # the module keeps its own spec (its real name)
 
 
 def install() -> None:

@@ -12,8 +12,8 @@ from warehouse_phys import play as play_cli
 from warehouse_phys.apps import interrupts
 from warehouse_phys.apps.play import HUD_LINE_PX, HUD_LINES, FleetPlaySession, PlaySession
 from warehouse_phys.envs import fleet
-from warehouse_phys.rules.planning import PIBT
-from warehouse_phys.rules.traffic import WAIT
+from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.world.traffic import WAIT
 
 GRID_ID = warehouse_phys.GRID_ENV_ID
 PHYS_ID = warehouse_phys.PHYSICS_ENV_ID

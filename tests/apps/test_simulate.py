@@ -220,7 +220,7 @@ def test_a_frame_costs_less_than_a_step_on_the_largest_warehouse_map():
     import gc
 
     from warehouse_phys.drawing import render
-    from warehouse_phys.rules.planning import pibt_policy
+    from warehouse_phys.planners.pibt import pibt_policy
 
     env = fleet.parallel_env(layout=str(MAPS / "warehouse-large-140-500.map"), num_robots=1000,
                              max_cycles=16, observation="local")  # fmt: skip
@@ -259,8 +259,8 @@ def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_
     tmp_path, capsys, moves
 ):
     from tests.envs.test_fleet_instances import small_instance
-    from warehouse_phys.rules.instances import write_instance
-    from warehouse_phys.rules.lorr_output import replay
+    from warehouse_phys.lorr.instances import write_instance
+    from warehouse_phys.lorr.output import replay
 
     # Named as the 2024 record instance, so that its published figures are shown.
     path = write_instance(small_instance("scheduler", robots=6), tmp_path / "WAREHOUSE.json")
@@ -291,8 +291,8 @@ def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_
 def test_the_scheduler_is_chosen_by_name_and_only_for_an_instance(tmp_path, capsys):
     from tests.envs.test_fleet_instances import small_instance
     from warehouse_phys.apps.simulate import _setup, build_parser
-    from warehouse_phys.rules.instances import write_instance
-    from warehouse_phys.rules.scheduling import least_makespan, nearest_free_robot
+    from warehouse_phys.lorr.instances import write_instance
+    from warehouse_phys.lorr.scheduling import least_makespan, nearest_free_robot
 
     path = write_instance(small_instance("scheduler", robots=4), tmp_path / "w.json")
     for argv, chosen in (([], nearest_free_robot), (["--scheduler", "makespan"], least_makespan)):
@@ -311,9 +311,9 @@ def test_what_a_run_does_not_model_is_said_in_its_output_and_summary(tmp_path, c
     import dataclasses
 
     from tests.envs.test_fleet_instances import small_instance
-    from warehouse_phys.rules.delays import DelayConfig
-    from warehouse_phys.rules.instances import write_instance
-    from warehouse_phys.rules.planning import pibt_policy
+    from warehouse_phys.execution.delays import DelayConfig
+    from warehouse_phys.lorr.instances import write_instance
+    from warehouse_phys.planners.pibt import pibt_policy
 
     delay = DelayConfig(7, 1, 20, "bernoulli", 0.005, "uniform")
     plain = small_instance("scheduler", robots=4)
@@ -353,7 +353,7 @@ def test_what_a_run_does_not_model_is_said_in_its_output_and_summary(tmp_path, c
 )  # fmt: skip
 def test_bad_instance_arguments_end_in_one_line(tmp_path, capsys, argv, message):
     from tests.envs.test_fleet_instances import small_instance
-    from warehouse_phys.rules.instances import write_instance
+    from warehouse_phys.lorr.instances import write_instance
 
     path = write_instance(small_instance(), tmp_path / "x.json")
     assert main(["--instance", str(path), "--out", str(tmp_path / "run"), *argv]) == 2

@@ -10,9 +10,9 @@ import pytest
 from tests.envs.test_fleet_instances import small_instance
 from warehouse_phys.apps.simulate import main
 from warehouse_phys.apps.simulate_async import DEFAULT_DELAYS
-from warehouse_phys.rules.delays import DelayConfig, DelayGenerator
-from warehouse_phys.rules.instances import read_instance, write_instance
-from warehouse_phys.rules.lorr_output import GRID_LETTERS, replay
+from warehouse_phys.execution.delays import DelayConfig, DelayGenerator
+from warehouse_phys.lorr.instances import read_instance, write_instance
+from warehouse_phys.lorr.output import GRID_LETTERS, replay
 
 LORR = Path(__file__).resolve().parents[3] / "shared" / "lorr"
 MAZE = LORR / "2026-examples-maze" / "maze-example_40.json"

@@ -14,10 +14,10 @@ with warnings.catch_warnings():
     from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
 
 from warehouse_phys.envs import async_fleet, lorr
+from warehouse_phys.execution.async_grid import AsyncGrid
+from warehouse_phys.execution.delays import DelayConfig
 from warehouse_phys.physics import COLLISION_SLOP, HEADING_SNAP_BOUND
 from warehouse_phys.physics.ticking import TRACKING_MARGIN, check_tick_controller
-from warehouse_phys.rules.async_grid import AsyncGrid
-from warehouse_phys.rules.delays import DelayConfig
 
 LORR = Path(__file__).resolve().parents[3] / "shared" / "lorr"
 FLOOR = ["S.......", ".##.##..", "........", ".##.##..", "........"]

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 import warehouse_phys
 from tests.drawing.test_render import robot_centre
-from tests.rules.test_grid import layouts
+from tests.world.test_grid import layouts
 from warehouse_phys import SNAP_ERROR_BOUND, Action, WarehousePhysicsEnv
 from warehouse_phys.envs import single as envs_module
 from warehouse_phys.physics import PhysicsConfig

@@ -17,8 +17,8 @@ with warnings.catch_warnings():
 from warehouse_phys.envs import fleet
 from warehouse_phys.physics import COLLISION_SLOP, SNAP_ERROR_BOUND, PhysicsConfig
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.traffic import WAIT, corner_follows_are_safe
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.traffic import WAIT, corner_follows_are_safe
 
 WORLDS = {"grid": {"physics": False}, "physics": {"physics": True}}
 
@@ -563,8 +563,8 @@ def test_a_fleet_with_more_packages_than_its_distance_maps_hold_runs_on_guide_pa
     refused such a fleet at every reset). Deliveries happen, the maps stay in their
     bound, every robot's ``optimal_steps`` is at least its true distance, and exactly it
     for the robots whose packages have maps."""
-    from warehouse_phys.rules.distances import DistanceMaps
-    from warehouse_phys.rules.planning import pibt_policy
+    from warehouse_phys.planners.distances import DistanceMaps
+    from warehouse_phys.planners.pibt import pibt_policy
 
     env = fleet.parallel_env(num_robots=12, layout="aisles", on_delivery="new_package",
                              max_cycles=120)  # fmt: skip

@@ -10,10 +10,10 @@ import pytest
 
 from tests.envs.test_fleet import pettingzoo_quietly
 from warehouse_phys.envs import fleet, lorr
-from warehouse_phys.rules.errands import NO_ERRAND
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.instances import LorrInstance, write_instance
-from warehouse_phys.rules.planning import pibt_policy
+from warehouse_phys.lorr.errands import NO_ERRAND
+from warehouse_phys.lorr.instances import LorrInstance, write_instance
+from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.world.grid import WarehouseGrid
 
 with __import__("warnings").catch_warnings():
     __import__("warnings").simplefilter("ignore", DeprecationWarning)

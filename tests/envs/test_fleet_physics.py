@@ -25,8 +25,8 @@ from warehouse_phys.physics import (
     PhysicsConfig,
     check_controller,
 )
-from warehouse_phys.rules.planning import pibt_policy
-from warehouse_phys.rules.traffic import CLEARANCE_MARGIN, WAIT, check_clearance
+from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.world.traffic import CLEARANCE_MARGIN, WAIT, check_clearance
 
 LEFT, DOWN, RIGHT, UP = range(4)
 DEFAULTS = PhysicsConfig()

@@ -21,9 +21,9 @@ from warehouse_phys.physics import (
     PhysicsConfig,
     check_controller,
 )
-from warehouse_phys.rules.headings import HEADING_MOVES, MOVE_HEADINGS, TurnAction, turning_moves
-from warehouse_phys.rules.planning import pibt_policy
-from warehouse_phys.rules.traffic import WAIT
+from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.world.headings import HEADING_MOVES, MOVE_HEADINGS, TurnAction, turning_moves
+from warehouse_phys.world.traffic import WAIT
 
 with __import__("warnings").catch_warnings():
     __import__("warnings").simplefilter("ignore", DeprecationWarning)

@@ -8,9 +8,9 @@ from gymnasium.vector import SyncVectorEnv
 from gymnasium.wrappers.vector import RecordEpisodeStatistics
 
 from tests.envs.vector_kinds import GRID_FLOORS, GRID_ID, SHELVES
-from warehouse_phys.rules.batched import BatchedRules
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.layouts import resolve_layout
+from warehouse_phys.world.batched import BatchedRules
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layouts import resolve_layout
 
 
 # ------------------------------------------------------------------ the rules

@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from warehouse_phys.physics import SNAP_ERROR_BOUND, PhysicsConfig, PhysicsWorld, penetration
 from warehouse_phys.physics.batched import ACTION_DELTA_ARRAY, GAP_REACH, BatchedPhysicsWorld
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.layouts import PRESETS, resolve_layout
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layouts import PRESETS, resolve_layout
 
 CONFIG = PhysicsConfig()
 FLOORS = {

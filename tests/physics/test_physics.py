@@ -18,7 +18,7 @@ from warehouse_phys.physics import (
     penetration,
     speed_profile,
 )
-from warehouse_phys.rules.grid import Action, WarehouseGrid
+from warehouse_phys.world.grid import Action, WarehouseGrid
 
 DEFAULTS = PhysicsConfig()
 GRID = WarehouseGrid(3, 3)
@@ -354,7 +354,7 @@ GC_STRESS_SCRIPT = """
 import copy, gc, pickle
 import gymnasium as gym
 import warehouse_phys
-from warehouse_phys.rules.grid import WarehouseGrid
+from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.physics import PhysicsConfig, PhysicsWorld, check_controller
 
 gc.set_threshold(1, 1, 1)  # a collection at almost every allocation

@@ -9,6 +9,9 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
+from warehouse_phys.execution.async_grid import AsyncGrid
+from warehouse_phys.execution.executor import Executor
+from warehouse_phys.execution.windows import pibt_window
 from warehouse_phys.physics import (
     COLLISION_SLOP,
     HEADING_SNAP_BOUND,
@@ -29,13 +32,10 @@ from warehouse_phys.physics.ticking import (
     tick_fractions,
     tracking_errors,
 )
-from warehouse_phys.rules.async_grid import AsyncGrid
-from warehouse_phys.rules.executor import Executor
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.headings import TurnAction, turned
-from warehouse_phys.rules.planning import PIBT
-from warehouse_phys.rules.traffic import neighbour_table
-from warehouse_phys.rules.windows import pibt_window
+from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.headings import TurnAction, turned
+from warehouse_phys.world.traffic import neighbour_table
 
 CONFIG = PhysicsConfig()
 FLOOR = WarehouseGrid.from_layout(["......", ".#..#.", ".#..#.", "......", "..##..", "......"])

@@ -12,7 +12,7 @@ from warehouse_phys.rl.fleet_evaluation import (
     shortest_path_policy,
     walled_off_packages,
 )
-from warehouse_phys.rules.traffic import WAIT
+from warehouse_phys.world.traffic import WAIT
 
 
 def always_wait(env, observations, infos):

@@ -26,8 +26,8 @@ from warehouse_phys.rl.qlearning import (
     save_q_table,
     table_metadata,
 )
-from warehouse_phys.rules.traffic import WAIT
 from warehouse_phys.viz import recording
+from warehouse_phys.world.traffic import WAIT
 
 
 def test_training_is_seeded_and_reproducible_and_learns_to_deliver():

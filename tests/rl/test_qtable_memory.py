@@ -25,7 +25,7 @@ from warehouse_phys.rl.qlearning import (
     save_q_table,
     table_bytes,
 )
-from warehouse_phys.rules.grid import WarehouseGrid
+from warehouse_phys.world.grid import WarehouseGrid
 
 pytestmark = pytest.mark.skipif(
     not CAN_MEASURE, reason="resident memory is read from Linux's /proc"

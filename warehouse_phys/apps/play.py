@@ -16,7 +16,7 @@ window) quits.
 
 With ``--robots N`` a fleet shares the floor: you drive ``robot_0`` (red, like
 its package; space waits) and the others follow the PIBT planner
-(:mod:`warehouse_phys.rules.planning`), which moves them out of your way, under the
+(:mod:`warehouse_phys.planners.pibt`), which moves them out of your way, under the
 fleet's traffic rule.
 
 The first episode is reset with ``--seed``, the next ones continue its random
@@ -58,9 +58,9 @@ from warehouse_phys.drawing.render import (
 )
 from warehouse_phys.envs import WarehousePhysicsEnv
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
-from warehouse_phys.rules.grid import Action
-from warehouse_phys.rules.planning import PIBT
-from warehouse_phys.rules.traffic import WAIT
+from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.world.grid import Action
+from warehouse_phys.world.traffic import WAIT
 
 PROG = "python -m warehouse_phys.play"
 #: Pace of the window while waiting for a key [frames/s].
@@ -230,7 +230,7 @@ class PlaySession:
 
 class FleetPlaySession(PlaySession):
     """A fleet in the window: the person drives ``robot_0``, the others follow the
-    :class:`~warehouse_phys.rules.planning.PIBT` planner, which plans the person's move first
+    :class:`~warehouse_phys.planners.pibt.PIBT` planner, which plans the person's move first
     and pushes teammates out of its way, so ``robot_0`` is never stuck behind one.
 
     Arrows move ``robot_0`` (red, like its package), space makes it wait; every

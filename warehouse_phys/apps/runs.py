@@ -48,9 +48,9 @@ from warehouse_phys.rl.qlearning import (
     table_metadata,
     train,
 )
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.layouts import PRESETS, preset_ids, resolve_layout, suggested_time_limit
 from warehouse_phys.viz.recording import EpisodeRecording, record_episode, record_fleet_episode
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layouts import PRESETS, preset_ids, resolve_layout, suggested_time_limit
 
 #: The environment kinds and the ids they stand for.
 ENVIRONMENTS = {"phys": warehouse_phys.PHYSICS_ENV_ID, "grid": warehouse_phys.GRID_ENV_ID}
@@ -90,7 +90,7 @@ class Floor:
 
     def time_limit(self) -> int:
         """``max_steps``, or the preset's registered limit, or
-        :func:`~warehouse_phys.rules.layouts.suggested_time_limit` of the floor."""
+        :func:`~warehouse_phys.world.layouts.suggested_time_limit` of the floor."""
         if self.max_steps is not None:
             return self.max_steps
         if self.preset is not None:
@@ -318,7 +318,7 @@ def fleet_comparison(env: WarehouseFleetEnv, q: Any) -> dict[str, FleetEvaluatio
     """The learned table's policy (:func:`greedy_fleet_policy`), the shortest-path
     baseline, the random policy and the PIBT planner on ``env``, over
     :data:`EVALUATION_SEEDS`, by name."""
-    from warehouse_phys.rules.planning import pibt_policy
+    from warehouse_phys.planners.pibt import pibt_policy
 
     policies = {
         "learned": greedy_fleet_policy(q),

@@ -9,7 +9,7 @@
 
 A fleet of ``--robots`` robots on ``--layout`` (a preset, a ``.map`` file or a text
 layout file; or ``--rows``/``--cols``) follows ``--policy`` for ``--steps`` joint
-steps: ``pibt`` (the planner of :mod:`warehouse_phys.rules.planning`), ``shortest``
+steps: ``pibt`` (the planner of :mod:`warehouse_phys.planners.pibt`), ``shortest``
 (each robot a shortest move, waiting when blocked), ``random``, or a fleet table
 written by ``python -m warehouse_phys.train --robots N``. ``--on-delivery``
 (default ``new_package``: lifelong) says what a robot does with a delivered
@@ -26,12 +26,12 @@ policy that does worse. It writes a run folder (default
 fit a 1000-pixel frame). Bad arguments end with exit status 2 and a one-line message.
 
 ``--instance X.json`` runs a League of Robot Runners problem instead
-(:mod:`warehouse_phys.rules.instances`: its floor, robots, starts and task list;
+(:mod:`warehouse_phys.lorr.instances`: its floor, robots, starts and task list;
 ``--steps`` 5,000 by default, as the competition counts): it reports errands and
 tasks finished a step, beside the published figure where the instance is one of
-:data:`~warehouse_phys.rules.instances.PUBLISHED_FIGURES`, and also writes
+:data:`~warehouse_phys.lorr.instances.PUBLISHED_FIGURES`, and also writes
 ``lorr-output.json``, the competition's output file
-(:mod:`warehouse_phys.rules.lorr_output`), which its own tools and viewer read.
+(:mod:`warehouse_phys.lorr.output`), which its own tools and viewer read.
 ``--moves rotate`` gives the robots the competition's model (turn in place, drive
 forward), on any floor.
 
@@ -77,6 +77,9 @@ from warehouse_phys.apps.cli import (
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
 from warehouse_phys.envs.fleet import DELIVERY_MODES, WarehouseFleetEnv, parallel_env
+from warehouse_phys.lorr.instances import PUBLISHED_FIGURES, SCHEDULED, read_instance
+from warehouse_phys.lorr.output import RunRecord, actual_actions, write_output
+from warehouse_phys.lorr.scheduling import SCHEDULERS
 from warehouse_phys.rl.fleet_evaluation import (
     FleetPolicy,
     compare_policies,
@@ -85,11 +88,8 @@ from warehouse_phys.rl.fleet_evaluation import (
     walled_off_packages,
     worse_policies,
 )
-from warehouse_phys.rules.headings import MOVE_MODELS
-from warehouse_phys.rules.instances import PUBLISHED_FIGURES, SCHEDULED, read_instance
-from warehouse_phys.rules.layouts import FLEET_PRESETS, PRESETS
-from warehouse_phys.rules.lorr_output import RunRecord, actual_actions, write_output
-from warehouse_phys.rules.scheduling import SCHEDULERS
+from warehouse_phys.world.headings import MOVE_MODELS
+from warehouse_phys.world.layouts import FLEET_PRESETS, PRESETS
 
 PROG = "python -m warehouse_phys.simulate"
 POLICIES = ("pibt", "guided", "shortest", "random")
@@ -219,7 +219,7 @@ class Simulation:
         return line
 
     def lorr_output_options(self) -> dict[str, Any]:
-        """Keywords of :func:`~warehouse_phys.rules.lorr_output.write_output` beyond the
+        """Keywords of :func:`~warehouse_phys.lorr.output.write_output` beyond the
         record: none in lock step (a run on ticks adds its ticks and delays)."""
         return {}
 
@@ -308,7 +308,7 @@ def make_policy(name: str, env: WarehouseFleetEnv, *, seed: int) -> FleetPolicy:
         ValueError: for an unknown name, or a table that does not fit ``env``'s floor.
     """
     if name == "pibt":
-        from warehouse_phys.rules.planning import pibt_policy
+        from warehouse_phys.planners.pibt import pibt_policy
 
         return pibt_policy(seed=seed)
     if name == "guided":
@@ -356,7 +356,7 @@ def simulate(
     by default what fits 1000 pixels), the first at the reset, the last after the last
     step, evenly spread (fewer when the episode ends early).
     ``on_step()`` is called after each step (a progress bar); ``record`` (a
-    :class:`~warehouse_phys.rules.lorr_output.RunRecord`) gets every step's planned and
+    :class:`~warehouse_phys.lorr.output.RunRecord`) gets every step's planned and
     actual actions (an instance fleet's, for the competition's output file)."""
     from warehouse_phys.drawing.render import fleet_map_frame
 

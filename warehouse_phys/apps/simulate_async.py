@@ -6,9 +6,9 @@ when the instance names ``agentCounter`` or ``delayConfig`` (LoRR 2026), or when
 command line gives ``--ticks-per-move`` or ``--p-delay`` (on any instance or floor). PIBT
 plans a move for every robot each move-duration; a move takes ``ticks_per_move`` ticks;
 delays are drawn each tick as LoRR 2026 draws them
-(:class:`~warehouse_phys.rules.delays.DelayGenerator`); the executor says GO or STOP to
+(:class:`~warehouse_phys.execution.delays.DelayGenerator`); the executor says GO or STOP to
 each robot each tick so that no two robots ever meet, whatever the delays
-(:mod:`warehouse_phys.rules.execution`). The command tells every robot GO every tick: the
+(:mod:`warehouse_phys.execution.runner`). The command tells every robot GO every tick: the
 executor alone holds robots back. ``--physics`` drives the physics twin's bodies.
 
 The flags (:func:`add_tick_arguments`):
@@ -34,9 +34,9 @@ floor :data:`DEFAULT_MOVES` moves' worth (``256 x ticks_per_move`` ticks), the s
 time of a lock-step run's default. The run reports errands (deliveries on a floor) and
 tasks a tick and a move-duration, the shares of robot-ticks stood still by a robot's own
 delay and by knock-on delay (a robot ahead had not moved on), the mean drift from the
-plan (:meth:`~warehouse_phys.rules.execution.ExecutionMeasures.shares`), and on an
+plan (:meth:`~warehouse_phys.execution.runner.ExecutionMeasures.shares`), and on an
 instance writes ``lorr-output.json`` with ``agentMaxCounter`` and ``delayIntervals``
-(:mod:`warehouse_phys.rules.lorr_output`).
+(:mod:`warehouse_phys.lorr.output`).
 """
 
 from __future__ import annotations
@@ -52,10 +52,10 @@ import numpy as np
 
 from warehouse_phys.apps.cli import UsageError, bounded_int
 from warehouse_phys.apps.simulate import DEFAULT_STEPS, INSTANCE_STEPS, Simulation
-from warehouse_phys.rules.delays import MAX_SEED, DelayConfig
-from warehouse_phys.rules.instances import LorrInstance
-from warehouse_phys.rules.lorr_output import RunRecord, actual_actions
-from warehouse_phys.rules.ticks import LORR_TICKS_PER_MOVE, MAX_TICKS_PER_MOVE
+from warehouse_phys.execution.delays import MAX_SEED, DelayConfig
+from warehouse_phys.execution.ticks import LORR_TICKS_PER_MOVE, MAX_TICKS_PER_MOVE
+from warehouse_phys.lorr.instances import LorrInstance
+from warehouse_phys.lorr.output import RunRecord, actual_actions
 
 if TYPE_CHECKING:
     from warehouse_phys.envs.async_fleet import AsyncFleetEnv
@@ -190,7 +190,7 @@ class TickSimulation(Simulation):
 
     ticks_per_move: int = 1
     delays: DelayConfig | None = None
-    #: :meth:`~warehouse_phys.rules.execution.ExecutionMeasures.shares` at the end.
+    #: :meth:`~warehouse_phys.execution.runner.ExecutionMeasures.shares` at the end.
     shares: dict[str, float] = dataclasses.field(default_factory=dict)
     #: Windows PIBT planned.
     plans: int = 0

@@ -83,8 +83,8 @@ from warehouse_phys.apps.runs import ENVIRONMENTS, RUN_FILES, SUMMARY_FILE, TABL
 from warehouse_phys.files.atomic import TEMPORARY_PREFIX, TEMPORARY_SUFFIX, atomic_write_text
 from warehouse_phys.files.runfolder import RunFolder, RunFolderError
 from warehouse_phys.rl.qlearning import QLearningConfig, check_training_memory
-from warehouse_phys.rules.grid import DEFAULT_COLS, DEFAULT_ROWS, MAX_SIDE, MIN_SIDE
-from warehouse_phys.rules.layouts import PRESETS
+from warehouse_phys.world.grid import DEFAULT_COLS, DEFAULT_ROWS, MAX_SIDE, MIN_SIDE
+from warehouse_phys.world.layouts import PRESETS
 
 PROG = "python -m warehouse_phys.sweep"
 INSTALL_RAY = 'pip install "warehouse_phys[ray]"'

@@ -85,7 +85,7 @@ from warehouse_phys.rl.qlearning import (
     load_q_table,
     table_tail,
 )
-from warehouse_phys.rules.layouts import PRESETS
+from warehouse_phys.world.layouts import PRESETS
 
 PROG = "python -m warehouse_phys.train"
 Outcome = TypeVar("Outcome")

@@ -286,7 +286,7 @@ class WarehouseRenderer:
     def for_grid(
         cls, grid: Any, *, cell_px: int, render_fps: float, title: str = "warehouse_phys"
     ) -> WarehouseRenderer:
-        """The renderer of a :class:`~warehouse_phys.rules.grid.WarehouseGrid`'s floor and
+        """The renderer of a :class:`~warehouse_phys.world.grid.WarehouseGrid`'s floor and
         shelves."""
         return cls(
             grid.rows,
@@ -639,7 +639,7 @@ def _floor_image(rows: int, cols: int, px: int, packed_shelves: bytes) -> np.nda
 
 def _shelf_mask(grid: Any) -> np.ndarray:
     """``grid``'s shelves as a ``(rows, cols)`` boolean array: a
-    :class:`~warehouse_phys.rules.grid.WarehouseGrid`'s own ``shelf_mask``, else built
+    :class:`~warehouse_phys.world.grid.WarehouseGrid`'s own ``shelf_mask``, else built
     from ``grid.shelves`` (any collection of cells)."""
     mask = getattr(grid, "shelf_mask", None)
     if mask is not None:

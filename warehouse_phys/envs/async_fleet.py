@@ -2,7 +2,7 @@
 
 ``warehouse_phys.envs.async_fleet.parallel_env(layout="warehouse", num_robots=64,
 ticks_per_move=10, delays=DelayConfig(...))`` is the PettingZoo face of
-:class:`~warehouse_phys.rules.execution.Execution`; ``physics=True`` drives every robot
+:class:`~warehouse_phys.execution.runner.Execution`; ``physics=True`` drives every robot
 as a body of the physics twin
 (:meth:`~warehouse_phys.physics.batched.BatchedPhysicsWorld.drive_tick`).
 The environment composes those parts (floor, placement, errands, execution, bodies)
@@ -22,6 +22,17 @@ from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from warehouse_phys.drawing.render import fleet_ansi_frame
+from warehouse_phys.execution.delays import DelayConfig
+from warehouse_phys.execution.executor import DEFAULT_MIN_GAP
+from warehouse_phys.execution.runner import Execution, TickOutcome
+from warehouse_phys.execution.ticks import (
+    LORR_TICKS_PER_MOVE,
+    check_ticks_per_move,
+    check_whole,
+    move_ticks,
+)
+from warehouse_phys.lorr.errands import NO_ERRAND, ErrandList, errand_list
+from warehouse_phys.lorr.instances import LorrInstance, as_instance
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
 from warehouse_phys.physics.config import PhysicsConfig, physics_config_from
 from warehouse_phys.physics.ticking import (
@@ -29,25 +40,14 @@ from warehouse_phys.physics.ticking import (
     required_min_gap,
     tick_fractions,
 )
-from warehouse_phys.rules.delays import DelayConfig
-from warehouse_phys.rules.errands import NO_ERRAND, ErrandList, errand_list
-from warehouse_phys.rules.execution import Execution, TickOutcome
-from warehouse_phys.rules.executor import DEFAULT_MIN_GAP
-from warehouse_phys.rules.headings import HEADINGS, MOVE_MODELS, Heading
-from warehouse_phys.rules.instances import LorrInstance, as_instance
-from warehouse_phys.rules.layouts import make_grid
-from warehouse_phys.rules.placement import (
+from warehouse_phys.world.headings import HEADINGS, MOVE_MODELS, Heading
+from warehouse_phys.world.layouts import make_grid
+from warehouse_phys.world.placement import (
     check_room,
     draw_new_packages,
     draw_placement,
     package_cells,
     reachable_cells,
-)
-from warehouse_phys.rules.ticks import (
-    LORR_TICKS_PER_MOVE,
-    check_ticks_per_move,
-    check_whole,
-    move_ticks,
 )
 
 #: The actions: hold the robot this tick, or let the executor drive it.
@@ -65,11 +65,11 @@ class AsyncFleetEnv(ParallelEnv):
     ``num_robots`` robots on one floor (a preset, a MovingAI ``.map`` file, rows and
     columns) or a League of Robot Runners instance's robots and errands. Every
     ``plan_every`` ticks PIBT plans a window of moves for every robot
-    (:class:`~warehouse_phys.rules.execution.Execution`); a move takes
+    (:class:`~warehouse_phys.execution.runner.Execution`); a move takes
     ``ticks_per_move`` ticks (divided by a robot's speed factor, rounded up:
-    :mod:`warehouse_phys.rules.ticks`); delays are drawn each tick as LoRR 2026 draws
-    them (:mod:`warehouse_phys.rules.delays`); the executor
-    (:mod:`warehouse_phys.rules.executor`) says GO or STOP to each robot each tick so
+    :mod:`warehouse_phys.execution.ticks`); delays are drawn each tick as LoRR 2026 draws
+    them (:mod:`warehouse_phys.execution.delays`); the executor
+    (:mod:`warehouse_phys.execution.executor`) says GO or STOP to each robot each tick so
     that no two robots' centres ever come closer than ``min_gap`` cells, whatever the
     delays. With ``physics=True`` each robot is a disc in one pymunk space whose body
     follows its grid position tick by tick and is snapped when a move ends; the gap is
@@ -77,7 +77,7 @@ class AsyncFleetEnv(ParallelEnv):
     and no two discs ever overlap by more than the collision slop.
 
     With ``moves="rotate"`` the robots are the League of Robot Runners' turning robots
-    (:mod:`warehouse_phys.rules.headings`): they start facing east, and a forward move
+    (:mod:`warehouse_phys.world.headings`): they start facing east, and a forward move
     or a quarter turn each takes a move's ticks; the planner is PIBT over cells and
     headings.
 
@@ -98,7 +98,7 @@ class AsyncFleetEnv(ParallelEnv):
 
     ## Starting State
     Robots on distinct cells drawn from the reachable cells, packages drawn among the
-    floor's package cells (:mod:`warehouse_phys.rules.placement`); an instance's robots
+    floor's package cells (:mod:`warehouse_phys.world.placement`); an instance's robots
     on its starts with its first errands.
 
     ## Rewards
@@ -117,18 +117,18 @@ class AsyncFleetEnv(ParallelEnv):
     ## Arguments
     - ``num_robots`` (int; an instance's ``teamSize``), ``layout``, ``grid_rows``,
       ``grid_cols``: the floor, as in :class:`~warehouse_phys.envs.fleet.WarehouseFleetEnv`.
-    - ``instance``: a :class:`~warehouse_phys.rules.instances.LorrInstance` or its JSON
+    - ``instance``: a :class:`~warehouse_phys.lorr.instances.LorrInstance` or its JSON
       path; its ``agentCounter`` and ``delayConfig`` are the defaults of
       ``ticks_per_move`` and ``delays``; ``scheduler``, ``record_errands`` as the fleet's.
     - ``moves`` (``"grid"``, default: four directions; ``"rotate"``: turning robots).
     - ``ticks_per_move`` (int, default LoRR's 10), ``speeds`` (``(N,)`` speed factors).
-    - ``delays`` (:class:`~warehouse_phys.rules.delays.DelayConfig`, its JSON dict, or
+    - ``delays`` (:class:`~warehouse_phys.execution.delays.DelayConfig`, its JSON dict, or
       ``None``: no delays). Delays are drawn from the configuration's own seed, as LoRR
       draws them: every episode has the same delays unless ``reset(options={"delays":
       ...})`` gives another configuration.
     - ``plan_every`` (ticks, default ``ticks_per_move``), ``window`` (steps, default 1),
       ``around_delays`` (``"wait"``, ``"reroute"``, ``"off"``: how the windows treat
-      delayed robots, :class:`~warehouse_phys.rules.execution.Execution`),
+      delayed robots, :class:`~warehouse_phys.execution.runner.Execution`),
       ``min_gap`` (cells; default the executor's, with physics what the bodies need;
       a smaller one than the bodies need is refused).
     - ``physics`` (bool), ``tick_steps`` (physics steps a tick), the physical keywords

@@ -28,8 +28,8 @@ from warehouse_phys.drawing.render import (
     check_display,
 )
 from warehouse_phys.physics import PhysicsConfig
-from warehouse_phys.rules.grid import Action, Cell, refuse_durations, step_reward
-from warehouse_phys.rules.layouts import make_grid
+from warehouse_phys.world.grid import Action, Cell, refuse_durations, step_reward
+from warehouse_phys.world.layouts import make_grid
 
 #: The actions in value order, so that ``_ACTIONS[i]`` is ``Action(i)`` without an enum lookup.
 _ACTIONS: tuple[Action, ...] = tuple(Action)

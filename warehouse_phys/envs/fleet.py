@@ -5,7 +5,7 @@
 an AEC environment (PettingZoo's ``parallel_to_aec``, refusing a bad action at once).
 
 Its length is one PettingZoo environment whose class docstring, its specification,
-is a fifth of it; the rules it applies live in :mod:`warehouse_phys.rules`.
+is a fifth of it; the rules it applies live in :mod:`warehouse_phys.world`.
 """
 
 from __future__ import annotations
@@ -30,16 +30,17 @@ from warehouse_phys.envs.fleet_observations import (
     FleetObservations,
     robot_infos,
 )
+from warehouse_phys.lorr.errands import ErrandList, errand_list
+from warehouse_phys.lorr.instances import LorrInstance, as_instance
+from warehouse_phys.lorr.scheduling import Scheduler
 from warehouse_phys.physics import PhysicsConfig, check_controller, physics_config_from
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
-from warehouse_phys.rules.batched import step_rewards
-from warehouse_phys.rules.distances import DistanceMaps
-from warehouse_phys.rules.errands import ErrandList, errand_list
-from warehouse_phys.rules.grid import refuse_durations
-from warehouse_phys.rules.headings import MOVE_MODELS, TURN_ACTIONS, Heading, joint_grants
-from warehouse_phys.rules.instances import LorrInstance, as_instance
-from warehouse_phys.rules.layouts import make_grid, suggested_time_limit
-from warehouse_phys.rules.placement import (
+from warehouse_phys.planners.distances import DistanceMaps
+from warehouse_phys.world.batched import step_rewards
+from warehouse_phys.world.grid import refuse_durations
+from warehouse_phys.world.headings import MOVE_MODELS, TURN_ACTIONS, Heading, joint_grants
+from warehouse_phys.world.layouts import make_grid, suggested_time_limit
+from warehouse_phys.world.placement import (
     START_MODES,
     check_room,
     draw_new_packages,
@@ -48,8 +49,7 @@ from warehouse_phys.rules.placement import (
     package_cells,
     reachable_cells,
 )
-from warehouse_phys.rules.scheduling import Scheduler
-from warehouse_phys.rules.traffic import FLEET_ACTIONS, check_clearance, corner_follows_are_safe
+from warehouse_phys.world.traffic import FLEET_ACTIONS, check_clearance, corner_follows_are_safe
 
 __all__ = [
     "DELIVERY_MODES",
@@ -78,7 +78,7 @@ class WarehouseFleetEnv(ParallelEnv):
     ## Description
     ``num_robots`` robots share one floor (the default 4 x 5, any size, a preset,
     or a MovingAI ``.map`` file). All move at once; the traffic rule of
-    :mod:`warehouse_phys.rules.traffic` decides which moves are granted (walls and
+    :mod:`warehouse_phys.world.traffic` decides which moves are granted (walls and
     shelves refuse a move; among robots heading for one cell the lowest-numbered
     goes; a robot heading for a cell whose occupant stays waits, so chains and
     rotations move together; swaps wait; corner follows only for robots small
@@ -90,7 +90,7 @@ class WarehouseFleetEnv(ParallelEnv):
     centre. A physical setting is accepted only if the robots' controller passes
     :func:`~warehouse_phys.physics.check_controller` and leaves room between
     every two robots in every situation the rule grants
-    (:func:`~warehouse_phys.rules.traffic.check_clearance`: discs of diameter ``d``
+    (:func:`~warehouse_phys.world.traffic.check_clearance`: discs of diameter ``d``
     cells need ``1 - 2e >= d + 0.02``, where ``e`` is how far the controller
     carries a robot past its cell); anything else is refused with a
     ``ValueError`` that names the bound. For every accepted setting the tests
@@ -98,18 +98,18 @@ class WarehouseFleetEnv(ParallelEnv):
     ever come closer than their diameter minus the collision slop.
 
     With ``moves="rotate"`` the robots are the League of Robot Runners' turning
-    robots (:mod:`warehouse_phys.rules.headings`): each faces east, south, west or
+    robots (:mod:`warehouse_phys.world.headings`): each faces east, south, west or
     north, and turns in place or drives forward; in the physics world the body turns
     through the physics (its angle is the heading, snapped like its position). With
     ``instance=`` the fleet is a League of Robot Runners problem
-    (:mod:`warehouse_phys.rules.instances`): its floor, its robots' starts and its
-    task list, handed out as the competition does (:mod:`warehouse_phys.rules.errands`).
+    (:mod:`warehouse_phys.lorr.instances`): its floor, its robots' starts and its
+    task list, handed out as the competition does (:mod:`warehouse_phys.lorr.errands`).
 
     ## Action Space
     ``Discrete(5)`` per robot: LEFT=0, DOWN=1, RIGHT=2, UP=3 (as the single
-    environments) and WAIT=4 (:data:`warehouse_phys.rules.traffic.WAIT`). Turning
+    environments) and WAIT=4 (:data:`warehouse_phys.world.traffic.WAIT`). Turning
     robots: ``Discrete(4)``, FORWARD=0, CLOCKWISE=1, COUNTERCLOCKWISE=2, WAIT=3
-    (:class:`~warehouse_phys.rules.headings.TurnAction`, the competition's order).
+    (:class:`~warehouse_phys.world.headings.TurnAction`, the competition's order).
     ``step`` takes a dict with an action for every live robot; anything else raises
     ``ValueError``/``TypeError`` naming the robot and changes nothing.
 
@@ -149,7 +149,7 @@ class WarehouseFleetEnv(ParallelEnv):
     robot's package is drawn uniformly from the floor's package cells, never on
     a robot's cell or another robot's package. A floor without room for the
     fleet is refused with a ``ValueError`` that gives the counts. Placement rules:
-    :mod:`warehouse_phys.rules.placement`. Turning robots face east. An instance
+    :mod:`warehouse_phys.world.placement`. Turning robots face east. An instance
     fleet starts where its instance says, and its first errands are handed out.
 
     ## Rewards
@@ -182,10 +182,10 @@ class WarehouseFleetEnv(ParallelEnv):
     :attr:`robot_cells` and :attr:`package_cells` ``(N, 2)``, :attr:`parked`,
     :attr:`on_floor`, :attr:`deliveries` ``(N,)``, :attr:`robot_headings` (turning
     robots), :attr:`steps`, :attr:`distances`, the floor's shortest-path distances
-    to packages (one :class:`~warehouse_phys.rules.distances.DistanceMaps`, built as
+    to packages (one :class:`~warehouse_phys.planners.distances.DistanceMaps`, built as
     packages appear; to bound its memory, set ``env.distances = DistanceMaps(env.grid,
     max_bytes=...)`` before the first reset), and an instance fleet's :attr:`errands`
-    (:class:`~warehouse_phys.rules.errands.ErrandList`: errands and tasks finished).
+    (:class:`~warehouse_phys.lorr.errands.ErrandList`: errands and tasks finished).
 
     ## Arguments
     - ``num_robots`` (int, default 2; an instance's ``teamSize``): at least 1, at
@@ -198,18 +198,18 @@ class WarehouseFleetEnv(ParallelEnv):
       :class:`~warehouse_phys.envs.WarehousePhysicsEnv` (``robot_radius`` ...)
       also decide for the grid twin whether corner follows are granted.
     - ``moves`` (``"grid"``, default: four directions; ``"rotate"``: turning robots).
-    - ``instance`` (a :class:`~warehouse_phys.rules.instances.LorrInstance` or the path
+    - ``instance`` (a :class:`~warehouse_phys.lorr.instances.LorrInstance` or the path
       of its JSON file): the floor, starts and errands of a League of Robot Runners
       problem; then ``grid_rows``, ``grid_cols``, ``layout`` and ``starts`` are not
       given, ``max_cycles`` defaults to :data:`LORR_STEPS`; ``scheduler`` (a
-      :data:`~warehouse_phys.rules.scheduling.Scheduler`, for 2024 and later
+      :data:`~warehouse_phys.lorr.scheduling.Scheduler`, for 2024 and later
       instances; default the nearest pairing) and ``record_errands`` (bool: keep
       the events the competition's output file lists).
     - ``grid_rows``, ``grid_cols``, ``layout``: the floor, as in the single
       environments (``layout`` also takes a path to a MovingAI ``.map`` file).
     - ``on_delivery`` (``"park"``, ``"leave"``, ``"new_package"``), ``lifelong``
       (bool), ``starts`` (``"auto"``, ``"layout"``, ``"random"``), ``max_cycles``
-      (int; default :func:`~warehouse_phys.rules.layouts.suggested_time_limit` of the
+      (int; default :func:`~warehouse_phys.world.layouts.suggested_time_limit` of the
       floor, the single environments' limit), ``observation`` (``"local"``,
       ``"neighbours"``, ``"global"``, ``"onehot"``, ``"neighbours_onehot"``),
       ``render_mode`` (``None``; ``"rgb_array"``:
@@ -441,7 +441,7 @@ class WarehouseFleetEnv(ParallelEnv):
 
     @property
     def robot_headings(self) -> np.ndarray | None:
-        """Each turning robot's heading (:class:`~warehouse_phys.rules.headings.Heading`),
+        """Each turning robot's heading (:class:`~warehouse_phys.world.headings.Heading`),
         ``(N,)`` int64, read-only; ``None`` for robots that do not turn."""
         return None if self._headings is None else _read_only(self._headings)
 
@@ -672,7 +672,7 @@ class WarehouseFleetEnv(ParallelEnv):
     # ------------------------------------------------------------------ helpers
     def _draw_new_packages(self, robots: np.ndarray) -> None:
         """New packages for ``robots``, as
-        :func:`~warehouse_phys.rules.placement.draw_new_packages` draws them."""
+        :func:`~warehouse_phys.world.placement.draw_new_packages` draws them."""
         if not robots.size:
             return
         cells = draw_new_packages(self.np_random, self._targets, self.grid.rows * self.grid.cols,

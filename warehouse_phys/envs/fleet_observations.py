@@ -15,9 +15,9 @@ import numpy as np
 from gymnasium import spaces
 
 from warehouse_phys.envs.base import onehot
-from warehouse_phys.rules.grid import WarehouseGrid
-from warehouse_phys.rules.headings import HEADINGS
-from warehouse_phys.rules.traffic import neighbour_table
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.headings import HEADINGS
+from warehouse_phys.world.traffic import neighbour_table
 
 OBSERVATIONS = ("local", "global", "neighbours", "onehot", "neighbours_onehot")
 #: Most robots whose observation may be ``"global"``: each robot's copy of the state

@@ -8,7 +8,7 @@ out as the competition does (:class:`~warehouse_phys.envs.fleet.WarehouseFleetEn
 ``delayConfig`` (League of Robot Runners 2026), a tick a step.
 
     from warehouse_phys.envs import lorr
-    from warehouse_phys.rules.planning import pibt_policy
+    from warehouse_phys.planners.pibt import pibt_policy
 
     env = lorr.fleet("../shared/lorr/2023-main-warehouse/MR23-I-10.json", moves="rotate")
     observations, infos = env.reset(seed=0)
@@ -28,13 +28,13 @@ from pettingzoo import AECEnv
 from warehouse_phys.envs import fleet as _fleet
 from warehouse_phys.envs.async_fleet import AsyncFleetEnv
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
-from warehouse_phys.rules.instances import LorrInstance
+from warehouse_phys.lorr.instances import LorrInstance
 
 
 def fleet(
     instance: LorrInstance | str | os.PathLike[str], *, moves: str = "rotate", **kwargs: Any
 ) -> WarehouseFleetEnv:
-    """The fleet of ``instance`` (a :class:`~warehouse_phys.rules.instances.LorrInstance` or
+    """The fleet of ``instance`` (a :class:`~warehouse_phys.lorr.instances.LorrInstance` or
     the path of its JSON file) as a PettingZoo ``ParallelEnv``; ``moves`` defaults to the
     competition's turning robots, and ``kwargs`` are the fleet's (``physics``,
     ``scheduler``, ``record_errands``, ``observation``, ``max_cycles``, ...).

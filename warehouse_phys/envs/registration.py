@@ -5,7 +5,7 @@
 - ``warehouse-robot-phys-v0``: the physics-backed twin
   (:class:`~warehouse_phys.envs.single.WarehousePhysicsEnv`);
 - ``warehouse-robot-<preset>-v0`` and ``warehouse-robot-phys-<preset>-v0`` for
-  each warehouse layout of :data:`warehouse_phys.rules.layouts.PRESETS` (``aisles``,
+  each warehouse layout of :data:`warehouse_phys.world.layouts.PRESETS` (``aisles``,
   ``depot``, ``maze``), with time limits that suit their sizes.
 
 Every id has a native vector environment (``gym.make_vec``, see
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-from warehouse_phys.rules.layouts import PRESETS, preset_ids
+from warehouse_phys.world.layouts import PRESETS, preset_ids
 
 GRID_ENV_ID = "warehouse-robot-v0"
 PHYSICS_ENV_ID = "warehouse-robot-phys-v0"

@@ -4,7 +4,7 @@
 checks, reset options, the reward rule, observations, rendering). A concrete
 environment only says how the robot gets from one cell to the next by
 overriding :meth:`WarehouseEnvBase._move_robot`: the grid twin applies the rule
-of :class:`~warehouse_phys.rules.grid.WarehouseGrid` directly, the physics-backed
+of :class:`~warehouse_phys.world.grid.WarehouseGrid` directly, the physics-backed
 environment drives a pymunk body there and reads the cell back from it.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 
 from warehouse_phys.envs.base import WarehouseEnvBase, checked_record_path, recording_world
 from warehouse_phys.physics import CAN_RESTART, PhysicsConfig, PhysicsWorld, check_controller
-from warehouse_phys.rules.grid import Action, Cell, move_table
+from warehouse_phys.world.grid import Action, Cell, move_table
 
 _PHYSICS_DEFAULTS = PhysicsConfig()
 
@@ -36,7 +36,7 @@ class WarehouseGridEnv(WarehouseEnvBase):
     name (``"aisles"``, ``"depot"``, ``"maze"``) or rows of text, ``.`` floor,
     ``#`` shelf, ``P`` a cell where packages may appear, ``S`` the start (the
     first ``S``, if a fleet layout marks several; see
-    :meth:`warehouse_phys.rules.grid.WarehouseGrid.from_layout`). The presets are
+    :meth:`warehouse_phys.world.grid.WarehouseGrid.from_layout`). The presets are
     also registered as ``warehouse-robot-<name>-v0``.
 
     ## Action Space
@@ -105,7 +105,7 @@ class WarehouseGridEnv(WarehouseEnvBase):
       ``gym.make("warehouse-robot-v0", grid_rows=8, grid_cols=8, max_episode_steps=700)``.
       Each preset's id has the limit that gives the same 98 % (1200, 1500 and
       900 steps for ``aisles``, ``depot`` and ``maze``);
-      :func:`warehouse_phys.rules.layouts.suggested_time_limit` gives one for any
+      :func:`warehouse_phys.world.layouts.suggested_time_limit` gives one for any
       floor (exact up to 100 reachable cells, 12 steps per cell beyond).
 
     Stepping on after termination is allowed and follows the same rules, as in

@@ -39,9 +39,9 @@ from warehouse_phys.envs.base import (
 )
 from warehouse_phys.physics import PhysicsConfig, check_controller, physics_config_from
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
-from warehouse_phys.rules.batched import BatchedRules, step_rewards
-from warehouse_phys.rules.grid import Action, refuse_durations
-from warehouse_phys.rules.layouts import make_grid, suggested_time_limit
+from warehouse_phys.world.batched import BatchedRules, step_rewards
+from warehouse_phys.world.grid import Action, refuse_durations
+from warehouse_phys.world.layouts import make_grid, suggested_time_limit
 
 #: Most sub-environments in one vector environment (about 100 bytes of state each).
 MAX_NUM_ENVS = 2**24
@@ -64,8 +64,8 @@ class WarehouseGridVectorEnv(VectorEnv):
     Each sub-environment is exactly a :class:`~warehouse_phys.envs.WarehouseGridEnv`
     made through ``gym.make`` (with its time limit): the same floor, moves,
     rewards, terminations, truncations and ``info["optimal_steps"]``. The rules
-    come from :class:`~warehouse_phys.rules.batched.BatchedRules`, look-up tables
-    derived from the one :class:`~warehouse_phys.rules.grid.WarehouseGrid`; a step is
+    come from :class:`~warehouse_phys.world.batched.BatchedRules`, look-up tables
+    derived from the one :class:`~warehouse_phys.world.grid.WarehouseGrid`; a step is
     a few array operations over all floors, with no Python loop over them.
 
     ## Action Space
@@ -120,7 +120,7 @@ class WarehouseGridVectorEnv(VectorEnv):
       :class:`~warehouse_phys.envs.WarehouseGridEnv`.
     - ``max_episode_steps`` (int): the time limit; ``gym.make_vec`` passes the
       id's (200 on the default floor, each preset's own); made directly, the
-      floor's :func:`~warehouse_phys.rules.layouts.suggested_time_limit`.
+      floor's :func:`~warehouse_phys.world.layouts.suggested_time_limit`.
     - ``render_mode`` (``None``, ``"rgb_array"`` or ``"ansi"``): ``render()``
       returns a tuple with one frame per sub-environment.
     - Keyword-only: ``observation`` (``"cells"`` or ``"onehot"``), ``step_penalty``

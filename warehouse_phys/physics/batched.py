@@ -62,7 +62,7 @@ from warehouse_phys.physics.ticking import (
     control_motion,
     control_turn,
 )
-from warehouse_phys.rules.grid import ACTION_DELTAS, WarehouseGrid
+from warehouse_phys.world.grid import ACTION_DELTAS, WarehouseGrid
 
 #: Empty floor between the walls of two neighbouring floors [cells].
 FLOOR_GAP = 1.0
@@ -305,7 +305,7 @@ class BatchedPhysicsWorld:
         self, ends: np.ndarray, headings: np.ndarray, bumped: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`move` for a joint step of turning robots, as the traffic rule granted it
-        (:func:`~warehouse_phys.rules.headings.turning_moves`).
+        (:func:`~warehouse_phys.world.headings.turning_moves`).
 
         Args:
             ends: ``(N, 2)`` the cell each robot ends on under the rule.

@@ -18,8 +18,8 @@ from warehouse_phys.physics.config import (
     PhysicsConfig,
 )
 from warehouse_phys.physics.world import PhysicsWorld
-from warehouse_phys.rules.grid import ACTION_DELTAS, Action, Cell, WarehouseGrid
-from warehouse_phys.rules.headings import HEADING_MOVES, TurnAction, turning_moves
+from warehouse_phys.world.grid import ACTION_DELTAS, Action, Cell, WarehouseGrid
+from warehouse_phys.world.headings import HEADING_MOVES, TurnAction, turning_moves
 
 
 def speed_profile(
@@ -103,7 +103,7 @@ class ControllerMotion(NamedTuple):
     the largest of every move :func:`check_controller` tries.
 
     The fleet's traffic rule needs these to keep robots apart
-    (:func:`~warehouse_phys.rules.traffic.check_clearance`).
+    (:func:`~warehouse_phys.world.traffic.check_clearance`).
     """
 
     #: Past the centre of the cell a free move enters, along the move.

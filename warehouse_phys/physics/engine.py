@@ -19,7 +19,7 @@ import pymunk
 import pymunk.batch
 
 from warehouse_phys.physics.config import PhysicsConfig
-from warehouse_phys.rules.grid import Cell, WarehouseGrid
+from warehouse_phys.world.grid import Cell, WarehouseGrid
 
 #: Thickness of the static walls around the floor [cells]. A wall this thick
 #: cannot be crossed in one physics step (steps are shorter than the robot's radius).

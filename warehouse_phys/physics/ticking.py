@@ -1,6 +1,6 @@
 """Robots between cells, tick by tick: the physics twin of asynchronous execution.
 
-The executor (:mod:`warehouse_phys.rules.executor`) runs a fleet on a clock of *ticks*:
+The executor (:mod:`warehouse_phys.execution.executor`) runs a fleet on a clock of *ticks*:
 a move takes ``ticks_needed`` ticks, each tick a robot advances one tick of its move or
 holds, and between ticks a robot is at rest on a cell or in mid-move between the cell
 it ``left`` and the cell it ``entered``, ``done`` ticks of its move done. Its *nominal
@@ -106,6 +106,8 @@ import numpy as np
 import pymunk
 import pymunk.batch
 
+from warehouse_phys.execution.async_grid import AsyncGrid
+from warehouse_phys.execution.ticks import check_ticks_per_move, check_whole
 from warehouse_phys.physics.config import (
     HEADING_SNAP_BOUND,
     MAX_STEPS_PER_MOVE,
@@ -113,10 +115,8 @@ from warehouse_phys.physics.config import (
     PhysicsConfig,
 )
 from warehouse_phys.physics.engine import new_space
-from warehouse_phys.rules.async_grid import AsyncGrid
-from warehouse_phys.rules.grid import ACTION_DELTAS, WarehouseGrid
-from warehouse_phys.rules.headings import HEADING_MOVES, TurnAction, turned
-from warehouse_phys.rules.ticks import check_ticks_per_move, check_whole
+from warehouse_phys.world.grid import ACTION_DELTAS, WarehouseGrid
+from warehouse_phys.world.headings import HEADING_MOVES, TurnAction, turned
 
 if TYPE_CHECKING:
     from warehouse_phys.physics.batched import BatchedPhysicsWorld
@@ -595,7 +595,7 @@ def check_tick_controller(
             largest over both kinds of probe, with the angles measured.
 
     The probes (see ``_probe_patterns``) run single robots, each on its own copy of a
-    5 x 5 floor with a shelf, through :class:`~warehouse_phys.rules.async_grid.AsyncGrid`
+    5 x 5 floor with a shelf, through :class:`~warehouse_phys.execution.async_grid.AsyncGrid`
     and :meth:`BatchedPhysicsWorld.drive_tick`: moves in a row round the walls and the
     shelf (corners, every direction), reversals after rest, stops of 1, 2, 3, 5 and
     ``ticks_per_move`` ticks after every number of a move's ticks (at 32 points spread

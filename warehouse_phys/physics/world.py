@@ -51,7 +51,7 @@ from warehouse_phys.physics.engine import (
     set_position,
     space_stepping,
 )
-from warehouse_phys.rules.grid import ACTION_DELTAS, Cell, WarehouseGrid
+from warehouse_phys.world.grid import ACTION_DELTAS, Cell, WarehouseGrid
 
 
 class MoveResult(NamedTuple):

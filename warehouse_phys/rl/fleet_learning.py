@@ -40,7 +40,7 @@ from warehouse_phys.rl.qlearning import (
     run_episodes,
     td_update,
 )
-from warehouse_phys.rules.traffic import FLEET_ACTIONS
+from warehouse_phys.world.traffic import FLEET_ACTIONS
 
 #: Masks of a neighbours observation: four bits, one per adjacent cell.
 NEIGHBOUR_MASKS = 16

@@ -1,6 +1,6 @@
 """Fleet policies (``FleetPolicy``) of the planners beyond plain PIBT, by name.
 
-:func:`guided_pibt_policy` plans with :class:`~warehouse_phys.rules.guidance.GuidedPIBT`:
+:func:`guided_pibt_policy` plans with :class:`~warehouse_phys.planners.guidance.GuidedPIBT`:
 PIBT following guide paths priced by the fleet's traffic. :func:`planner_policy` gives a
 policy by name (``"pibt"``, ``"guided"``, the guidance's ablations ``"guided-costs"``
 and ``"guided-paths"``, and for turning robots ``"guided-ops"`` and ``"pibt-ops"``, planned
@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
+from warehouse_phys.planners.guidance import GuidanceConfig, GuidedPIBT
+from warehouse_phys.planners.pibt import pibt_policy
 from warehouse_phys.rl.fleet_evaluation import FleetPolicy
-from warehouse_phys.rules.guidance import GuidanceConfig, GuidedPIBT
-from warehouse_phys.rules.planning import pibt_policy
 
 #: The guidance of each named planner: following congestion-priced guide paths
 #: (``guided``), the prices alone as a tie-break of PIBT's distances (``guided-costs``),
@@ -29,7 +29,7 @@ PLANNER_GUIDANCE: dict[str, GuidanceConfig] = {
     "guided-paths": GuidanceConfig(vertex_weight=0.0, contraflow_weight=0.0),
 }
 #: Planners over multi-action operations of 3 actions (turning robots only:
-#: :class:`~warehouse_phys.rules.operations.OperationPIBT`), by name, and their guidance:
+#: :class:`~warehouse_phys.planners.operations.OperationPIBT`), by name, and their guidance:
 #: the ``guided`` planner's (``guided-ops``), or none, distances alone (``pibt-ops``: no
 #: guide path is searched).
 PLANNER_OPERATIONS: dict[str, GuidanceConfig] = {
@@ -44,7 +44,7 @@ PLANNERS = ("pibt", *PLANNER_GUIDANCE, *PLANNER_OPERATIONS)
 
 class GuidedPIBTPolicy:
     """A fleet policy (``FleetPolicy``) that plans with
-    :class:`~warehouse_phys.rules.guidance.GuidedPIBT`; :func:`guided_pibt_policy` makes
+    :class:`~warehouse_phys.planners.guidance.GuidedPIBT`; :func:`guided_pibt_policy` makes
     one. ``planner`` is the planner of the episode under way (its ``guidance`` counts the
     last step's searches and unguided robots), ``None`` before the first call."""
 
@@ -90,20 +90,20 @@ class GuidedPIBTPolicy:
 def guided_pibt_policy(
     seed: int = 0, config: GuidanceConfig | None = None, operations: int = 0
 ) -> FleetPolicy:
-    """A fleet policy that plans with :class:`~warehouse_phys.rules.guidance.GuidedPIBT`
-    (``config``: the guidance, :class:`~warehouse_phys.rules.guidance.GuidanceConfig`'s
+    """A fleet policy that plans with :class:`~warehouse_phys.planners.guidance.GuidedPIBT`
+    (``config``: the guidance, :class:`~warehouse_phys.planners.guidance.GuidanceConfig`'s
     defaults unless given; ``operations``: its operations' actions, turning robots only,
     0 for one-step PIBT): stateful across the steps of an episode, started afresh when
     the environment resets (``env.steps`` back at 0) or another environment calls it, and
     deterministic for a seed (while the guidance's ``time_limit`` is not reached). It reads
-    the fleet's public state only, as :func:`~warehouse_phys.rules.planning.pibt_policy`
+    the fleet's public state only, as :func:`~warehouse_phys.planners.pibt.pibt_policy`
     does (a :class:`GuidedPIBTPolicy`)."""
     return GuidedPIBTPolicy(seed, config, operations)
 
 
 def planner_policy(name: str, seed: int = 0, **guidance: Any) -> FleetPolicy:
     """The policy of the planner ``name`` (one of :data:`PLANNERS`), seeded; ``guidance``
-    overrides fields of a guided planner's :class:`~warehouse_phys.rules.guidance.GuidanceConfig`
+    overrides fields of a guided planner's :class:`~warehouse_phys.planners.guidance.GuidanceConfig`
     (``time_limit=0.5``, say).
 
     Raises:

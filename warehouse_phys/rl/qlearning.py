@@ -36,6 +36,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from warehouse_phys.planners.distances import DistanceMaps
+
 # The table file and the memory budget live in qtable_file; re-exported here, where
 # they lived first and where the README, the notebooks and the tests import them.
 from warehouse_phys.rl.qtable_file import (
@@ -56,9 +58,8 @@ from warehouse_phys.rl.qtable_file import (
     table_kind,
     table_tail,
 )
-from warehouse_phys.rules.distances import DistanceMaps
-from warehouse_phys.rules.grid import Cell
-from warehouse_phys.rules.traffic import neighbour_table
+from warehouse_phys.world.grid import Cell
+from warehouse_phys.world.traffic import neighbour_table
 
 
 @dataclass(frozen=True)

@@ -30,8 +30,8 @@ import numpy as np
 
 from warehouse_phys.files.atomic import atomic_write
 from warehouse_phys.files.npzfile import ArchiveError, NpzReader
-from warehouse_phys.rules.grid import MAX_SIDE, WarehouseGrid
-from warehouse_phys.rules.layouts import PRESETS, preset_ids, preset_name
+from warehouse_phys.world.grid import MAX_SIDE, WarehouseGrid
+from warehouse_phys.world.layouts import PRESETS, preset_ids, preset_name
 
 #: Largest metadata string read from a table file [bytes].
 METADATA_MAX_BYTES = 2**20
@@ -70,7 +70,7 @@ _METADATA_FIELDS: dict[str, type | tuple[type, ...]] = {
     "layout_name": (str, type(None)),
 }
 #: Optional: the robots of a fleet that shares the table (absent: one robot). A fleet's
-#: table has a fifth action, WAIT (see warehouse_phys.rules.traffic).
+#: table has a fifth action, WAIT (see warehouse_phys.world.traffic).
 _FLEET_FIELD = "robots"
 
 

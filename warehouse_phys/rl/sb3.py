@@ -78,7 +78,7 @@ packages a step (4 robots, 200 steps, seeds 0 to 4, measured with
 ``warehouse_phys.rl.fleet_evaluation.evaluate_throughput``); 0.03 with SB3's
 default rollout and 20k steps, and 0.10 with ``n_steps=128, batch_size=256`` and
 300k steps (4 minutes), where the PIBT planner
-(``warehouse_phys.rules.planning.pibt_policy``) delivers 1.52. No settings that
+(``warehouse_phys.planners.pibt.pibt_policy``) delivers 1.52. No settings that
 learn the fleet are known yet::
 
     import supersuit as ss

@@ -26,7 +26,7 @@ from matplotlib.patches import Rectangle
 from warehouse_phys.files.atomic import atomic_write
 from warehouse_phys.physics import PhysicsConfig
 from warehouse_phys.rl.qlearning import TrainingResult, greedy_actions, state_values
-from warehouse_phys.rules.grid import WarehouseGrid
+from warehouse_phys.world.grid import WarehouseGrid
 
 if TYPE_CHECKING:
     from warehouse_phys.rl.fleet_learning import FleetEvaluation
@@ -228,7 +228,7 @@ def fleet_gap_figure(gaps: np.ndarray, config: PhysicsConfig, title: str = "") -
     out): 0 is touching; the line marks a corner follow's gap, the closest the traffic
     rule allows."""
     from warehouse_phys.physics import COLLISION_SLOP
-    from warehouse_phys.rules.traffic import CORNER_FOLLOW_DISTANCE
+    from warehouse_phys.world.traffic import CORNER_FOLLOW_DISTANCE
 
     gaps = np.asarray(gaps, dtype=np.float64)
     gaps = gaps[np.isfinite(gaps)]

@@ -1,0 +1,107 @@
+"""The congestion-free task flow of an instance: what its errand list and scheduler would
+finish if robots never met.
+
+:func:`congestion_free_flow` plays an instance's errand list
+(:func:`~warehouse_phys.lorr.errands.errand_list`, its scheduler included) with robots
+that drive each errand's Manhattan distance, one cell a step, in a straight line through
+each other: no shelves in the way, no turns, no waiting. A robot finishes an errand on
+the step it arrives, and sets off for its next one on the step after, as the fleet
+counts (one errand a step at most). So it separates what the task list and the scheduler
+allow from what planning loses to traffic: a planner's figure beside it says how much of
+the flow the traffic took. It is a model, not a bound: on a floor with shelves a path is
+longer than the Manhattan distance, turning robots turn, and a real fleet's robots come
+free at other times and places, so a scheduler may hand them other tasks. On an empty
+floor with one robot it is the fleet's own count (tests/lorr/test_task_flow.py).
+
+O(N) array work a step plus the scheduler's own. Like :mod:`warehouse_phys.world.grid`,
+this module imports neither gymnasium, pymunk nor pygame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from warehouse_phys.lorr.errands import NO_ERRAND, errand_list
+from warehouse_phys.lorr.instances import LorrInstance
+from warehouse_phys.lorr.scheduling import Scheduler
+
+
+@dataclass(frozen=True)
+class TaskFlow:
+    """What :func:`congestion_free_flow` counted."""
+
+    #: Steps played.
+    steps: int
+    #: Errands finished by the end of each step, ``(steps,)``.
+    errands_done: np.ndarray
+    #: Tasks finished by the end of each step, ``(steps,)``.
+    tasks_done: np.ndarray
+    #: Cells driven (Manhattan) over the run: to errands finished or still under way.
+    moves: int
+
+    @property
+    def errands_per_step(self) -> float:
+        return float(self.errands_done[-1]) / self.steps if self.steps else 0.0
+
+    @property
+    def tasks_per_step(self) -> float:
+        return float(self.tasks_done[-1]) / self.steps if self.steps else 0.0
+
+
+def congestion_free_flow(
+    instance: LorrInstance, steps: int, *, scheduler: Scheduler | None = None
+) -> TaskFlow:
+    """``instance``'s errand list played for ``steps`` steps by robots that never meet (see
+    the module); ``scheduler`` as the fleet's (2024 and later instances; None: the
+    default).
+
+    Raises:
+        ValueError: for ``steps`` below 1, or a scheduler on a 2023 instance (as the
+            fleet).
+    """
+    if steps < 1:
+        raise ValueError(f"steps must be at least 1, got {steps!r}")
+    errands = errand_list(instance, scheduler=scheduler)
+    cols = instance.grid.cols
+    here = np.asarray(instance.starts[: instance.team_size], dtype=np.int64).copy()
+    errands.reset(here)
+    goal = errands.goals.copy()
+    never = np.iinfo(np.int64).max
+    arrival = np.full(len(here), never, dtype=np.int64)
+    moves = _set_off(arrival, here, goal, 0, cols)
+    errands_done = np.empty(steps, dtype=np.int64)
+    tasks_done = np.empty(steps, dtype=np.int64)
+    for step in range(1, steps + 1):
+        arrived = np.flatnonzero(arrival == step)
+        here[arrived] = goal[arrived]
+        arrival[arrived] = never
+        errands.step(arrived, here)
+        new = errands.goals
+        # Robots with a new errand (the arrived, and free robots given a task) set off.
+        fresh = (new != NO_ERRAND) & (arrival == never)
+        goal[fresh] = new[fresh]
+        moves += _set_off(arrival, here, goal, step, cols, fresh)
+        errands_done[step - 1] = errands.errands_done
+        tasks_done[step - 1] = errands.tasks_done
+    return TaskFlow(steps, errands_done, tasks_done, moves)
+
+
+def _set_off(
+    arrival: np.ndarray,
+    here: np.ndarray,
+    goal: np.ndarray,
+    now: int,
+    cols: int,
+    robots: np.ndarray | None = None,
+) -> int:
+    """Robots (all with an errand by default) leave ``here`` for ``goal`` after step
+    ``now``; each arrives its Manhattan distance later, one step at the soonest (one
+    errand a step). Returns the cells they drive."""
+    chosen = (goal != NO_ERRAND) if robots is None else robots & (goal != NO_ERRAND)
+    rows, columns = np.divmod(here[chosen], cols)
+    to_rows, to_columns = np.divmod(goal[chosen], cols)
+    distance = np.abs(rows - to_rows) + np.abs(columns - to_columns)
+    arrival[chosen] = now + np.maximum(distance, 1)
+    return int(distance.sum())

@@ -1,0 +1,512 @@
+"""Guidance for PIBT: guide paths that keep robots out of each other's way.
+
+Plain PIBT (:mod:`warehouse_phys.planners.pibt`) sends every robot along a shortest path
+and settles each meeting greedily; at warehouse densities robots heading opposite ways
+meet head-on in one-cell aisles. Chen, Harabor, Li and Stuckey ("Traffic Flow
+Optimisation for Lifelong Multi-Agent Path Finding", AAAI 2024) give each robot a *guide
+path* priced by the others' guide paths, and let PIBT follow it. Here:
+
+- :class:`TrafficGuidance` keeps every robot's guide path and the *flow*, how many guide
+  paths leave each cell by each move (the part a robot has still to drive: the moves it
+  made are taken off as it makes them). A robot's guide path is searched anew when it
+  gets a new goal, when PIBT moved it off its path (pushed aside or back), and for
+  ``refresh`` other robots a step (in turn): an A* whose move from ``u`` to ``v`` costs
+  ``1 + vertex_weight * (guide paths leaving v) + contraflow_weight * (paths u->v + 1) *
+  (paths v->u)`` (:func:`~warehouse_phys.planners.graph_search.congestion_path`). A robot
+  that moved beside a cell further along its path rejoins it there without a search
+  (``rejoin=True``: also one pushed aside; on MR23-I-10 searching anew did better).
+- Turning robots (``moves="rotate"``): a quarter turn costs ``turn_cost`` more in their
+  guide paths' search, from the way the robot faces when it is searched, so of equally
+  priced paths it takes one with few turns (on MR23-I-10, 6 % more errands over the first
+  300 steps than paths searched as a four-direction robot's, at the same cost a step).
+  A turn holds up the robots behind the turning robot for a step, so a turn where many
+  guide paths pass costs more (``turn_traffic_weight``: ``turn_cost`` times one plus
+  the weight times the guide paths leaving the cell); on MR23-I-10 with 0.5, 29.65
+  errands a step over 5,000 steps against 28.45 with 0, at a cheaper step. Meeting a
+  robot head-on, a turning robot must turn round or wait, so contraflow costs it
+  ``turn_contraflow_weight`` (4 by default) instead of ``contraflow_weight`` (1).
+- One-way lanes for turning robots: every cell of a one-cell-wide corridor carries
+  ``turn_lane_paths`` (2) phantom guide paths along its lane
+  (:func:`~warehouse_phys.planners.lanes.one_way_lanes`: neighbouring corridors run
+  opposite ways), laid in the flow at the first update with ``facing``, so that a guide
+  path against a lane pays that contraflow and robots going opposite ways take
+  neighbouring corridors instead of meeting in one (every price of the flow sees them: a
+  move into a lane's cell, and a turn on one, cost a little more too). The README has
+  the figures.
+- Following (``follow=True``): a candidate cell of a robot is valued by its guide path,
+  the moves left along it from the path cell it is on or beside (one more beside), as
+  guided PIBT does; so PIBT moves it along its path, and pushes and backtracks as ever.
+  Without following, the candidates keep their distances to the goal plus a share below
+  one move of the contraflow on the move (a tie-break towards the traffic's way); robots
+  then leave their guide paths often, and each departure is a search (an ablation, slow
+  on big fleets).
+- Bounded work: at most ``max_searches`` searches and ``time_limit`` seconds of guidance
+  a step; robots left without a guide path are valued by PIBT's own distances (``NaN``
+  values), so a step is always PIBT's, and every plan traffic grants. The first step,
+  when every robot needs its first guide path, can have a bound of its own
+  (``first_time_limit``; ``math.inf`` for none).
+
+:class:`GuidedPIBT` is the planner: this guidance in front of PIBT's one-step resolution
+(the same :class:`~warehouse_phys.planners.pibt.PIBT`, through its ``candidate_values``).
+Deterministic for a seed and the same inputs, as long as ``time_limit`` is not reached
+(:attr:`TrafficGuidance.timed_out` counts the robots it left unguided). Like the other
+rules, it imports neither gymnasium, pymunk nor pygame.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from warehouse_phys.planners import graph_search
+from warehouse_phys.planners.distances import DistanceMaps
+from warehouse_phys.planners.lanes import NO_LANE, one_way_lanes
+from warehouse_phys.planners.operations import OperationPIBT
+from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.headings import HEADING_MOVES
+from warehouse_phys.world.traffic import FLEET_ACTIONS, WAIT, neighbour_table
+
+#: Most phantom guide paths a lane may carry (``turn_lane_paths``); far fewer already
+#: price driving against a lane above any way round.
+MAX_LANE_PATHS = 1000
+
+
+@dataclass(frozen=True)
+class GuidanceConfig:
+    """How :class:`TrafficGuidance` prices and refreshes guide paths."""
+
+    #: Cost of a move per guide path leaving the cell it enters [moves].
+    vertex_weight: float = 0.5
+    #: Cost of a move per product of the paths along it (itself included) and against it.
+    contraflow_weight: float = 1.0
+    #: The A*'s heuristic is this times the Manhattan distance (1: the cheapest path).
+    heuristic_weight: float = 1.0
+    #: Cost of a quarter turn in a turning robot's guide path [moves] (None: its guide
+    #: path is searched as a four-direction robot's).
+    turn_cost: float | None = 1.0
+    #: A turn holds up the robots behind it: a quarter turn at a cell costs ``turn_cost``
+    #: times (1 + this times the guide paths leaving the cell; 0: ``turn_cost`` alone).
+    turn_traffic_weight: float = 0.5
+    #: ``contraflow_weight`` for a turning robot's guide path (None: the same): a turning
+    #: robot that meets another head-on must turn round (two turns) or wait, so paths
+    #: against the traffic cost it more.
+    turn_contraflow_weight: float | None = 4.0
+    #: One-way lanes for turning robots: phantom guide paths laid along the lane of every
+    #: cell of a one-cell-wide corridor (:func:`~warehouse_phys.planners.lanes.one_way_lanes`),
+    #: so that a guide path against a lane pays the contraflow of this many paths (0: no
+    #: lanes).
+    turn_lane_paths: int = 2
+    #: Whether robots follow their guide paths (else distances with a flow tie-break).
+    follow: bool = True
+    #: Robots whose guide path is searched anew each step besides those that need one.
+    refresh: int = 0
+    #: How many cells of its guide path ahead of a robot are looked at [cells].
+    window: int = 8
+    #: Whether a robot pushed aside or back, one move off its guide path, rejoins it
+    #: (else a new search; a robot beside a cell further along always rejoins).
+    rejoin: bool = False
+    #: Most guide-path searches in one step (None: no bound).
+    max_searches: int | None = None
+    #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
+    #: each: the robots left get PIBT's distances (and the run may differ between runs).
+    time_limit: float | None = None
+    #: The first step's own bound [s] (``math.inf``: none), when every robot needs its
+    #: first guide path (None: ``time_limit`` bounds it too). At 10,000 robots a step's
+    #: ``time_limit`` cannot hold the first step's 10,000 searches, and the robots it
+    #: leaves unguided become a backlog that later steps never clear.
+    first_time_limit: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("vertex_weight", "contraflow_weight", "turn_traffic_weight"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.turn_contraflow_weight is not None and not self.turn_contraflow_weight >= 0:
+            raise ValueError(
+                f"turn_contraflow_weight must be >= 0 or None, got {self.turn_contraflow_weight!r}"
+            )
+        lane_paths = self.turn_lane_paths
+        if isinstance(lane_paths, bool) or not isinstance(lane_paths, int | np.integer):
+            raise TypeError(f"turn_lane_paths must be an int, got {lane_paths!r}")
+        if not 0 <= lane_paths <= MAX_LANE_PATHS:
+            raise ValueError(f"turn_lane_paths must be in 0..{MAX_LANE_PATHS}, "
+                             f"got {lane_paths!r}")  # fmt: skip
+        if not self.heuristic_weight >= 1:
+            raise ValueError(f"heuristic_weight must be >= 1, got {self.heuristic_weight!r}")
+        if self.turn_cost is not None and not self.turn_cost >= 0:
+            raise ValueError(f"turn_cost must be >= 0 or None, got {self.turn_cost!r}")
+        if self.refresh < 0 or self.window < 1:
+            raise ValueError(f"refresh must be >= 0 and window >= 1, got {self!r}")
+        if self.max_searches is not None and self.max_searches < 0:
+            raise ValueError(f"max_searches must be >= 0 or None, got {self.max_searches!r}")
+        for name in ("time_limit", "first_time_limit"):
+            value = getattr(self, name)
+            if value is not None and not value >= 0:
+                raise ValueError(f"{name} must be >= 0 or None, got {value!r}")
+
+
+@dataclass
+class _Paths:
+    """Every robot's guide path: robot ``i``'s cells (map columns) are
+    ``pool[start[i] : start[i] + moves[i] + 1]``, its goal last, ``moves[i] < 0`` for none;
+    ``cursor[i]`` is where along it the robot stands."""
+
+    goal: np.ndarray
+    start: np.ndarray
+    moves: np.ndarray
+    cursor: np.ndarray
+    pool: np.ndarray = field(default_factory=lambda: np.empty(1 << 16, dtype=np.int32))
+    used: int = 0
+
+    @classmethod
+    def empty(cls, n: int) -> _Paths:
+        none = np.full(n, -1, dtype=np.int64)
+        return cls(none.copy(), none.copy(), none.copy(), np.zeros(n, dtype=np.int64))
+
+
+class TrafficGuidance:
+    """Guide paths for a fleet on one floor, priced by their own traffic (the module's
+    docstring), and the values PIBT ranks candidate cells by.
+
+    Call :meth:`update` once a step with every robot's cell and goal (cell indices
+    ``row * cols + col``); it returns ``(N, 5)`` candidate values for
+    :meth:`~warehouse_phys.planners.pibt.PIBT.plan`'s ``candidate_values``.
+
+    Args:
+        grid: The floor.
+        config: Prices, refreshes and bounds (:class:`GuidanceConfig`).
+    """
+
+    def __init__(self, grid: WarehouseGrid, config: GuidanceConfig | None = None) -> None:
+        self.grid = grid
+        self.config = GuidanceConfig() if config is None else config
+        self._free = np.asarray(grid.free_mask, dtype=bool)
+        free_cells = np.flatnonzero(self._free.reshape(-1))
+        self._column = np.full(grid.rows * grid.cols + 1, -1, dtype=np.int64)  # last: -1
+        self._column[free_cells] = np.arange(len(free_cells))
+        self._cell_row = (free_cells // grid.cols).astype(np.int32)
+        self._cell_col = (free_cells % grid.cols).astype(np.int32)
+        self._table = neighbour_table(grid)
+        self._held = np.empty(0, dtype=np.int64)
+        self._floor_graph = graph_search.move_graph(self._free)
+        self._graph = self._floor_graph
+        n = len(free_cells)
+        #: How many guide paths leave each cell (map column) by each move; for turning
+        #: robots, the lanes' phantom paths (``config.turn_lane_paths``) included.
+        self.flow = np.zeros((n, 4), dtype=np.int32)
+        lanes = one_way_lanes(self._free)
+        self._lane_columns = np.flatnonzero(lanes != NO_LANE)
+        self._lane_moves = lanes[self._lane_columns].astype(np.int64)
+        self._lanes_laid = False
+        self._scratch = np.zeros((n, 4), dtype=np.int32)
+        self._g_cost = np.zeros(n, dtype=np.float64)
+        self._path = np.empty(n, dtype=np.int32)
+        self._facing: np.ndarray | None = None
+        self._generation = 0
+        self._paths = _Paths.empty(0)
+        self._turn = 0  # the next robot whose guide path is refreshed
+        self._first = True  # no step planned yet: first_time_limit bounds the next
+        self._guided = np.zeros(0, dtype=bool)  # robots with a guide path after the update
+        #: Guide-path searches made in the last step, and robots left unguided because
+        #: the step's time ran out.
+        self.searches = 0
+        self.timed_out = 0
+
+    def update(
+        self,
+        here: np.ndarray,
+        goal: np.ndarray,
+        active: np.ndarray,
+        distances: DistanceMaps | None = None,
+        held: np.ndarray | None = None,
+        facing: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """One step's guidance: each ``active`` robot's guide path brought up to date
+        (moved along, rejoined, searched anew within the step's bounds), then the values of
+        its five candidate cells (its four moves in action order, then its own cell), lower
+        better, ``NaN`` where it has no guide path (and every row but the active robots').
+        ``held`` cells (robots that never move again) are walls to the guide paths.
+        Without following, ``distances`` (the planner's) give the values' distances.
+        Turning robots give ``facing``, the move (0..3, grid action order) each faces:
+        their guide paths are searched with ``config.turn_cost`` a quarter turn.
+
+        Raises:
+            ValueError: if the number of robots changes between calls, or ``facing`` is
+                not one move (0..3) a robot.
+        """
+        here = np.asarray(here, dtype=np.int64)
+        goal = np.asarray(goal, dtype=np.int64)
+        active = np.asarray(active, dtype=bool)
+        facing = None if facing is None else np.asarray(facing, dtype=np.int64)
+        if facing is not None and (
+            facing.shape != here.shape or ((facing < 0) | (facing > 3)).any()
+        ):
+            raise ValueError(f"facing must be one move (0..3) a robot, got {facing!r}")
+        if len(self._paths.goal) != len(here):
+            if len(self._paths.goal):
+                raise ValueError("a new fleet needs a new TrafficGuidance")
+            self._paths = _Paths.empty(len(here))
+        self._hold(np.sort(np.asarray([] if held is None else held, dtype=np.int64)))
+        limit = self.config.time_limit
+        if self._first and self.config.first_time_limit is not None:
+            limit = self.config.first_time_limit
+        self._first = False
+        deadline = None if limit is None else time.perf_counter() + limit
+        paths = self._paths
+        dropped = (paths.goal != goal) | ~active | (self._column[goal] < 0)
+        self._drop(np.flatnonzero(dropped & (paths.moves >= 0)))
+        paths.goal[:] = np.where(active, goal, -1)
+        status = np.ones(len(here), dtype=np.int8)
+        column = self._column[here]
+        graph_search.follow_paths(self._graph, self.flow, paths.pool, paths.start, paths.moves,
+                                  paths.cursor, column, self.config.window, self.config.rejoin,
+                                  status)  # fmt: skip
+        status[~active] = 1
+        self._facing = facing
+        if facing is not None and not self._lanes_laid:  # a turning fleet: lay its lanes
+            self.flow[self._lane_columns, self._lane_moves] += self.config.turn_lane_paths
+            self._lanes_laid = True
+        self._search_paths(column, status, active, deadline)
+        self._guided = status == 0
+        return self._values(here, goal, column, self._guided, distances)
+
+    def cell_values(self, cells: np.ndarray, beside_cost: float = 1.0) -> np.ndarray:
+        """The values of any cells along each robot's guide path as of the last
+        :meth:`update` (``cells``: ``(N, M)`` cell indices, -1 for none), lower better: a
+        cell on the next ``config.window`` cells of the path, the moves left from there;
+        a cell beside them, ``beside_cost`` more than the least such; any other,
+        ``beside_cost + 1`` more than the moves left from the robot. ``NaN`` for robots
+        without a guide path."""
+        values = np.full(cells.shape, np.nan)
+        robots = np.flatnonzero(self._guided)
+        if not robots.size:
+            return values
+        found = np.empty((robots.size, cells.shape[1]), dtype=np.float64)
+        graph_search.follow_values(self._paths.pool, self._paths.start, self._paths.moves,
+                                   self._paths.cursor, self._cell_row, self._cell_col,
+                                   self._column[cells[robots]], robots, self.config.window,
+                                   found, float(beside_cost))  # fmt: skip
+        worst = self._paths.moves[robots] - self._paths.cursor[robots] + beside_cost + 1
+        values[robots] = np.where(np.isinf(found), worst[:, None], found)
+        return values
+
+    def _search_paths(
+        self, column: np.ndarray, status: np.ndarray, active: np.ndarray, deadline: float | None
+    ) -> None:
+        """Search the guide paths of the active robots that need one (``status`` 1), then
+        refresh ``refresh`` others in turn, within the step's bounds; ``status`` becomes 0
+        for every robot that has a guide path after."""
+        n = len(column)
+        order = np.roll(np.arange(n), -self._turn)  # who comes first turns round the fleet
+        reachable = self._column[self._paths.goal[order]] >= 0
+        needed = order[(status[order] == 1) & active[order] & reachable].tolist()
+        others = order[(status[order] == 0) & active[order]][: self.config.refresh].tolist()
+        self._turn = (self._turn + max(1, self.config.refresh)) % max(n, 1)
+        budget = self.config.max_searches
+        self.searches, self.timed_out = 0, 0
+        for done, i in enumerate([*needed, *others]):
+            if (budget is not None and done >= budget) or (
+                deadline is not None and time.perf_counter() > deadline
+            ):
+                self.timed_out = max(0, len(needed) - done)
+                return
+            self._drop(np.array([i]))
+            status[i] = 0 if self._search(i, int(column[i])) else 1
+            self.searches += 1
+
+    def _search(self, i: int, source: int) -> bool:
+        """Robot ``i``'s guide path from ``source`` (a map column) to its goal, stored and
+        added to the flow; False if its goal cannot be reached."""
+        self._generation += 1
+        if self._generation >= 2**31 - 1:
+            self._scratch[:, [0, 3]] = 0
+            self._generation = 1
+        paths, config = self._paths, self.config
+        goal = int(self._column[paths.goal[i]])
+        facing = -1 if self._facing is None or config.turn_cost is None else self._facing[i]
+        contraflow = config.contraflow_weight
+        if self._facing is not None and config.turn_contraflow_weight is not None:
+            contraflow = config.turn_contraflow_weight
+        costs = np.array([config.vertex_weight, contraflow, config.heuristic_weight,
+                          config.turn_cost or 0.0, config.turn_traffic_weight])  # fmt: skip
+        moves = graph_search.congestion_path(
+            self._graph, self._cell_row, self._cell_col, self.flow, source, goal, costs,
+            self._scratch, self._g_cost, self._generation, self._path, int(facing))  # fmt: skip
+        if moves < 0:
+            return False
+        if paths.used + moves + 2 > len(paths.pool):
+            self._compact(moves + 2)
+        path = self._path[: moves + 1]
+        paths.pool[paths.used] = -1  # free: a robot pushed off the start rejoins there
+        paths.pool[paths.used + 1 : paths.used + moves + 2] = path
+        paths.start[i], paths.moves[i], paths.cursor[i] = paths.used + 1, moves, 0
+        paths.used += moves + 2
+        graph_search.add_flow(self._graph, self.flow, path, 1)
+        return True
+
+    def _drop(self, robots: np.ndarray) -> None:
+        """Take the guide paths of ``robots`` away, and what is left of them off the flow."""
+        paths = self._paths
+        for i in robots.tolist():
+            if paths.moves[i] >= 0:
+                first = paths.start[i] + paths.cursor[i]
+                rest = paths.pool[first : paths.start[i] + paths.moves[i] + 1]
+                graph_search.add_flow(self._graph, self.flow, rest, -1)
+            paths.moves[i] = -1
+
+    def _compact(self, needed: int) -> None:
+        """Room for ``needed`` more path cells: keep only the live paths' cells from each
+        robot's cursor on, and grow the pool if still short."""
+        paths = self._paths
+        live = np.flatnonzero(paths.moves >= 0)
+        left = paths.moves[live] - paths.cursor[live] + 1
+        total = int(left.sum()) + len(live)  # each with a cell before it: the cursor's
+        capacity = len(paths.pool)
+        while capacity < 2 * (total + needed):
+            capacity *= 2
+        pool = np.empty(capacity, dtype=np.int32)
+        starts = 1 + np.concatenate([[0], np.cumsum(left + 1)])[: len(live)].astype(np.int64)
+        for i, begin, size in zip(live.tolist(), starts.tolist(), left.tolist(), strict=True):
+            first = paths.start[i] + paths.cursor[i]
+            pool[begin - 1] = -1  # free again
+            pool[begin : begin + size] = paths.pool[first : first + size]
+        paths.start[live], paths.moves[live], paths.cursor[live] = starts, left - 1, 0
+        paths.pool, paths.used = pool, total
+
+    def _hold(self, held: np.ndarray) -> None:
+        """Make the ``held`` cells walls of the guide paths' graph; when they change, every
+        guide path is dropped (to be searched anew round them)."""
+        if np.array_equal(held, self._held):
+            return
+        self._held = held
+        self._drop(np.flatnonzero(self._paths.moves >= 0))
+        self._graph = self._floor_graph.copy()
+        walls = self._column[held]
+        walls = walls[walls >= 0]
+        if walls.size:
+            self._graph[np.isin(self._graph, walls)] = -1
+            self._graph[walls] = -1
+
+    def _values(
+        self,
+        here: np.ndarray,
+        goal: np.ndarray,
+        column: np.ndarray,
+        guided: np.ndarray,
+        distances: DistanceMaps | None,
+    ) -> np.ndarray:
+        """The ``(N, 5)`` candidate values (see :meth:`update`)."""
+        values = np.full((len(here), FLEET_ACTIONS), np.nan)
+        robots = np.flatnonzero(guided)
+        if not robots.size:
+            return values
+        if self.config.follow:
+            return self.cell_values(self._table[here])
+        candidates = self._table[here[robots]]
+        if distances is None:
+            raise ValueError("guidance without following needs the planner's distances")
+        targets = np.repeat(goal[robots], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
+        distance = distances.lookup(candidates, targets).astype(np.float64)
+        from_column = column[robots]
+        to_column = self._column[candidates[:, :WAIT]]
+        along = self.flow[from_column][:, :WAIT]
+        against = self.flow[to_column, [2, 3, 0, 1]]
+        share = against / (along + against + 1.0)
+        distance[:, :WAIT] += self.config.contraflow_weight * 0.9 * share
+        values[robots] = distance
+        return values
+
+
+class GuidedPIBT:
+    """PIBT following guide paths (:class:`TrafficGuidance`): the planner of
+    :func:`warehouse_phys.rl.fleet_planners.guided_pibt_policy`.
+
+    ``plan(cells, goals, movable, present)`` is :meth:`PIBT.plan
+    <warehouse_phys.planners.pibt.PIBT.plan>`'s, with the candidates of each robot that
+    has a guide path ranked by it; its promises are PIBT's (every plan granted by the
+    traffic rule, the same plan for the same seed and inputs), and the guidance's
+    bounds hold each step (``config.max_searches``, ``config.time_limit``).
+
+    Args:
+        grid: The floor.
+        distances: The floor's distance maps (a fleet's ``env.distances``); new by default.
+        corner_follows: As :class:`~warehouse_phys.planners.pibt.PIBT`.
+        seed: Seeds PIBT's tie-breaks.
+        moves: ``"grid"`` or ``"rotate"``, as PIBT.
+        config: The guidance's prices, refreshes and bounds.
+        operations: Turning robots only: plan with operations of this many actions
+            (:class:`~warehouse_phys.planners.operations.OperationPIBT`, its cells valued
+            along the guide paths) instead of one-step PIBT; 0 (default): one step.
+
+    Raises:
+        ValueError: for ``operations`` with four-direction robots, or out of 0..4.
+    """
+
+    def __init__(
+        self,
+        grid: WarehouseGrid,
+        *,
+        distances: DistanceMaps | None = None,
+        corner_follows: bool = True,
+        seed: int = 0,
+        moves: str = "grid",
+        config: GuidanceConfig | None = None,
+        operations: int = 0,
+    ) -> None:
+        self.pibt = PIBT(grid, distances=distances, corner_follows=corner_follows, seed=seed,
+                         moves=moves)  # fmt: skip
+        self.guidance = TrafficGuidance(grid, config)
+        #: The planner over operations, if any.
+        self.operations: OperationPIBT | None = None
+        if operations:
+            if moves != "rotate":
+                raise ValueError(f"operations are for turning robots (moves='rotate'), got "
+                                 f"moves={moves!r}")  # fmt: skip
+            self.operations = OperationPIBT(grid, distances=self.pibt.distances,
+                                            corner_follows=corner_follows, seed=seed,
+                                            depth=operations)  # fmt: skip
+
+    def plan(
+        self,
+        cells: np.ndarray,
+        goals: np.ndarray,
+        movable: np.ndarray | None = None,
+        present: np.ndarray | None = None,
+        *,
+        headings: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The next joint action, as :meth:`PIBT.plan
+        <warehouse_phys.planners.pibt.PIBT.plan>` (``(N,)`` int64), guided.
+
+        Raises:
+            ValueError: as :meth:`PIBT.plan <warehouse_phys.planners.pibt.PIBT.plan>`,
+                and if turning robots' ``headings`` are not one of 0..3 each.
+        """
+        cols = self.pibt.grid.cols
+        cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+        goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
+        n = len(cells)
+        present = np.ones(n, dtype=bool) if present is None else np.asarray(present, bool)
+        movable = present.copy() if movable is None else np.asarray(movable, bool) & present
+        here = cells[:, 0] * cols + cells[:, 1]
+        facing = None
+        if self.pibt.turning and headings is not None:
+            headings = np.asarray(headings)
+            if headings.shape != (n,) or not np.isin(headings, np.arange(4)).all():
+                raise ValueError(f"turning robots need one heading 0..3 each ({n}), got "
+                                 f"{headings!r}")  # fmt: skip
+            facing = HEADING_MOVES[headings.astype(np.int64)]
+        values = self.guidance.update(here, goals[:, 0] * cols + goals[:, 1], movable,
+                                      self.pibt.distances, here[present & ~movable],
+                                      facing)  # fmt: skip
+        if self.operations is not None:
+            # A cell beside the guide path costs more than an operation's moves: a robot
+            # leaves its path (and needs a new one) only when no operation along it fits.
+            local = self.guidance.cell_values(self.operations.local_cells(here),
+                                              beside_cost=self.operations.depth + 1.0)  # fmt: skip
+            return self.operations.plan(cells, goals, movable, present, headings=headings,
+                                        cell_values=local)  # fmt: skip
+        return self.pibt.plan(cells, goals, movable, present, headings=headings,
+                              candidate_values=values)  # fmt: skip
