@@ -8,11 +8,12 @@ import ast
 import importlib
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 from tests.conftest import ROOT
-from warehouse_phys._moved import MOVED
+from warehouse_phys._moved import MOVED, OLD_PACKAGES
 
 PACKAGE = ROOT / "warehouse_phys"
 #: Each floor's height: a module may import its own floor's modules and lower floors'.
@@ -31,9 +32,9 @@ def floor_modules() -> list:
     return sorted(path for floor in FLOORS for path in (PACKAGE / floor).glob("*.py"))
 
 
-def runtime_imports(tree: ast.Module) -> list[tuple[int, str]]:
-    """``(line, module)`` of every import of the package, lazy ones included, but not
-    those made for type checking only."""
+def runtime_import_nodes(tree: ast.Module) -> list[ast.Import | ast.ImportFrom]:
+    """Every import statement of ``tree``, lazy ones included, but not those made for
+    type checking only."""
     # Type checking's imports, and a module __getattr__'s: the one way a name that moved
     # to a floor above is still found where it was (on demand, never at import).
     exempt_blocks = [
@@ -46,10 +47,18 @@ def runtime_imports(tree: ast.Module) -> list[tuple[int, str]]:
         id(node) for block in exempt_blocks for statement in block.body
         for node in ast.walk(statement)
     }  # fmt: skip
+    return [
+        node
+        for node in ast.walk(tree)
+        if isinstance(node, (ast.Import, ast.ImportFrom)) and id(node) not in checking_only
+    ]
+
+
+def runtime_imports(tree: ast.Module) -> list[tuple[int, str]]:
+    """``(line, module)`` of every import of the package, lazy ones included, but not
+    those made for type checking only."""
     found = []
-    for node in ast.walk(tree):
-        if id(node) in checking_only:
-            continue
+    for node in runtime_import_nodes(tree):
         if isinstance(node, ast.ImportFrom) and node.module:
             names = [node.module] if node.module != "warehouse_phys" else [
                 f"warehouse_phys.{alias.name}" for alias in node.names
@@ -65,7 +74,8 @@ def test_every_module_imports_only_its_floor_and_those_below(path):
     floor = path.parent.name
     for line, name in runtime_imports(ast.parse(path.read_text())):
         parts = name.split(".")
-        assert parts[1] not in MOVED, f"{path.name}:{line} imports the old path {name}"
+        old = parts[1] in MOVED or parts[1] in OLD_PACKAGES
+        assert not old, f"{path.name}:{line} imports the old path {name}"
         if parts[1] in FLOORS and parts[1] != floor:
             assert FLOORS[parts[1]] < FLOORS[floor], (
                 f"{floor}/{path.name}:{line} imports {name}, on a floor not below {floor}"
@@ -79,6 +89,111 @@ def test_the_floor_check_finds_an_upward_import():
     assert runtime_imports(ast.parse(checking)) == []
     lazy = "def f():\n    from warehouse_phys.viz import plots\n"
     assert runtime_imports(ast.parse(lazy)) == [(2, "warehouse_phys.viz")]
+
+
+def package_modules() -> dict[str, Path]:
+    """Every module of the package by dotted name (a package by its own name)."""
+    found = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        found[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return found
+
+
+def import_graph(modules: dict[str, Path]) -> dict[str, set[str]]:
+    """Module -> the package modules it imports at run time (lazy imports included): the
+    deepest module each import names (``from a.b import c`` is ``a.b.c`` where that is a
+    module, else ``a.b``)."""
+    graph = {}
+    for name, path in modules.items():
+        targets = set()
+        for node in runtime_import_nodes(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                targets |= {alias.name for alias in node.names}
+            elif node.module:
+                targets |= {
+                    f"{node.module}.{alias.name}"
+                    if f"{node.module}.{alias.name}" in modules else node.module
+                    for alias in node.names
+                }  # fmt: skip
+        graph[name] = {target for target in targets if target in modules and target != name}
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import graph's strongly connected components of more than one module (Tarjan's
+    algorithm, iterative): each is a circle of modules importing each other."""
+    index, low, on_stack, stack, found = {}, {}, set(), [], []
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is None:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = []
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        component.append(member)
+                        if member == node:
+                            break
+                    if len(component) > 1:
+                        found.append(sorted(component))
+            elif child not in index:
+                index[child] = low[child] = len(index)
+                stack.append(child)
+                on_stack.add(child)
+                work.append((child, iter(sorted(graph[child]))))
+            elif child in on_stack:
+                low[node] = min(low[node], index[child])
+    return found
+
+
+def test_no_module_of_the_package_imports_itself_round_a_circle():
+    found = circles(import_graph(package_modules()))
+    assert found == [], f"modules importing each other round a circle: {found}"
+
+
+def test_the_circle_check_finds_a_circle_through_a_lazy_import():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}, "e": set()}
+    assert circles(graph) == [["a", "b", "c"]]
+    assert circles({"a": {"b"}, "b": set()}) == []
+
+
+def long_module_reasons() -> dict[str, str]:
+    """ARCHITECTURE.md's list of modules over :data:`MAX_MODULE_LINES` lines, each with
+    its one-line reason: ``- `floor/module.py`: reason``."""
+    text = (ROOT / "ARCHITECTURE.md").read_text()
+    _, _, section = text.partition("## Modules over 500 lines")
+    section = section.split("\n## ", 1)[0]
+    reasons = {}
+    for line in section.splitlines():
+        if line.startswith("- `"):
+            path, _, reason = line[3:].partition("`: ")
+            reasons[path] = reason.strip()
+    return reasons
+
+
+def test_every_module_over_500_lines_has_its_reason_in_the_architecture():
+    reasons = long_module_reasons()
+    lengths = {
+        str(path.relative_to(PACKAGE)): len(path.read_text().splitlines())
+        for path in PACKAGE.rglob("*.py")
+    }
+    long = {path: lines for path, lines in lengths.items() if lines > MAX_MODULE_LINES}
+    unexplained = {path: lines for path, lines in long.items() if not reasons.get(path)}
+    assert unexplained == {}, f"modules over {MAX_MODULE_LINES} lines with no reason given"
+    stale = sorted(set(reasons) - set(long))
+    assert stale == [], f"ARCHITECTURE.md gives reasons for modules no longer long: {stale}"
 
 
 @pytest.mark.parametrize("floor", PURE_FLOORS)
