@@ -440,7 +440,7 @@ def planner_stepper(robots: int, joint_steps: int) -> Callable[[], float]:
     """The PIBT planner's plans alone (no env step between them: the same situation
     planned again) on the ``warehouse`` preset, lifelong; counts robot-steps planned."""
     from warehouse_phys.envs.fleet import parallel_env
-    from warehouse_phys.planners.pibt import pibt_policy
+    from warehouse_phys.rl.fleet_planners import pibt_policy
 
     env = parallel_env(num_robots=robots, layout="warehouse", on_delivery="new_package")
     observations, infos = env.reset(seed=0)

@@ -56,7 +56,7 @@ from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.planners.distances import DistanceMaps
 from warehouse_phys.planners.graph_search import move_graph
-from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.layouts import make_grid
 
 SHARED_MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps"

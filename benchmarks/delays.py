@@ -109,12 +109,14 @@ from warehouse_phys.execution.async_grid import (
     vertex_conflicts,
 )
 from warehouse_phys.execution.delays import DelayConfig, DelayGenerator
-from warehouse_phys.execution.executor import DEFAULT_MIN_GAP, Executor, TickReport
+from warehouse_phys.execution.executor import Executor, TickReport
+from warehouse_phys.execution.following import DEFAULT_MIN_GAP
 from warehouse_phys.execution.runner import Execution
 from warehouse_phys.files.atomic import atomic_write, atomic_write_text
 from warehouse_phys.physics import PhysicsConfig
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
-from warehouse_phys.physics.ticking import default_tick_steps, required_min_gap, tick_fractions
+from warehouse_phys.physics.tick_controller import required_min_gap
+from warehouse_phys.physics.ticking import default_tick_steps, tick_fractions
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.layouts import read_movingai

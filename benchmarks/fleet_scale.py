@@ -35,8 +35,8 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
-from warehouse_phys.planners.pibt import pibt_policy
 from warehouse_phys.rl.fleet_evaluation import random_fleet_policy, shortest_path_policy
+from warehouse_phys.rl.fleet_planners import pibt_policy
 
 MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps"
 #: Published lifelong throughput on the 33 x 46 warehouse, 192 robots, 256 steps

@@ -45,7 +45,7 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.lorr.instances import PUBLISHED_FIGURES, read_instance
-from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.rl.fleet_planners import pibt_policy
 
 LORR = Path(__file__).resolve().parents[2] / "shared" / "lorr"
 #: name -> (instance path under ../shared/lorr, move model)

@@ -308,7 +308,8 @@ def scaling_table(
 def scaling_plot(scaling: dict[str, object], path: Path) -> None:
     """Errands a step against robots, each planner and the ceiling; PNG at ``path``
     (:func:`warehouse_phys.viz.plots.planner_scaling_figure`)."""
-    from warehouse_phys.viz.plots import planner_scaling_figure, save_figure
+    from warehouse_phys.viz.figures import save_figure
+    from warehouse_phys.viz.throughput_figures import planner_scaling_figure
 
     save_figure(planner_scaling_figure(scaling), path)
 

@@ -17,8 +17,10 @@ from warehouse_phys import Action
 from warehouse_phys.apps import sweep
 from warehouse_phys.envs import fleet
 from warehouse_phys.rl.fleet_learning import greedy_fleet_policy, train_fleet
-from warehouse_phys.rl.qlearning import QLearningConfig, greedy_action, train
-from warehouse_phys.viz.plots import learning_curve_figure, save_figure
+from warehouse_phys.rl.greedy_policy import greedy_action
+from warehouse_phys.rl.qlearning import QLearningConfig, train
+from warehouse_phys.viz.figures import save_figure
+from warehouse_phys.viz.plots import learning_curve_figure
 from warehouse_phys.viz.recording import record_episode, record_fleet_episode
 
 HERE = Path(__file__).resolve().parent

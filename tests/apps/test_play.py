@@ -286,7 +286,7 @@ def test_the_real_command_without_a_display_exits_1_at_once(tmp_path):
 
 
 def test_sdls_invisible_drivers_count_as_no_display(monkeypatch):
-    from warehouse_phys.drawing.render import NoDisplayError, check_display
+    from warehouse_phys.drawing.display import NoDisplayError, check_display
 
     monkeypatch.delenv("SDL_VIDEODRIVER")
     monkeypatch.setenv("DISPLAY", ":99")  # set, but SDL found nothing there

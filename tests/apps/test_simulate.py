@@ -7,27 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from warehouse_phys.apps.simulate import main, simulate
-from warehouse_phys.drawing.render import MAP_PACKAGE, MAP_ROBOT_COLOURS, fleet_map_frame
+from warehouse_phys.apps.simulate import main
+from warehouse_phys.apps.simulate_lockstep import simulate
+from warehouse_phys.drawing.map_frames import MAP_PACKAGE, MAP_ROBOT_COLOURS, fleet_map_frame
 from warehouse_phys.envs import fleet
-from warehouse_phys.rl.fleet_evaluation import evaluate_fleet, shortest_path_policy
 
 #: The benchmark maps beside the repository (MovingAI), absent on a fresh clone.
 MAPS = Path(__file__).resolve().parents[3] / "shared" / "maps"
-
-
-def test_the_simulation_counts_deliveries_waits_and_frames():
-    env = fleet.parallel_env(num_robots=5, layout="aisles", lifelong=True, max_cycles=40)
-    result, frames = simulate(env, shortest_path_policy, steps=40, seed=1, frames=8)
-    assert result.steps == 40
-    assert result.throughput == result.deliveries.sum() / 40
-    assert result.deliveries.sum() == env.deliveries.sum()
-    assert result.waits.shape == (7, 9)
-    assert (
-        result.waits[[r for r, _ in env.grid.shelves], [c for _, c in env.grid.shelves]].sum() == 0
-    )
-    assert len(frames) == 8  # the first, then evenly spread
-    assert frames[0].shape == (7 * 24, 9 * 24, 3)
 
 
 def test_the_command_writes_its_run_folder(tmp_path, capsys):
@@ -97,14 +83,6 @@ def test_map_frames_show_robots_packages_and_shelves_in_array_colours():
     assert (frame[0, 0] == MAP_ROBOT_COLOURS[0]).all()
     assert (frame[3, 3] == MAP_PACKAGE).all()
     assert len({tuple(c) for c in MAP_ROBOT_COLOURS.tolist()}) == 8
-
-
-def test_frames_are_spread_evenly_and_bounded():
-    env = fleet.parallel_env(num_robots=2, lifelong=True, max_cycles=100)
-    _, frames = simulate(env, shortest_path_policy, steps=100, frames=64)
-    assert len(frames) == 64
-    _, frames = simulate(env, shortest_path_policy, steps=5, frames=64)
-    assert len(frames) == 6  # the reset and each step
 
 
 def test_a_learned_table_drives_the_robots_and_a_policy_worse_than_a_baseline_is_named(
@@ -184,7 +162,7 @@ def burn(seconds):
 
 
 def test_the_summary_times_the_reset_and_the_steps_with_the_frames_apart(tmp_path, monkeypatch):
-    from warehouse_phys.drawing import render
+    from warehouse_phys.drawing import map_frames as render
 
     drawn = render.fleet_map_frame
     reset = fleet.WarehouseFleetEnv.reset
@@ -210,47 +188,6 @@ def test_the_summary_times_the_reset_and_the_steps_with_the_frames_apart(tmp_pat
     # A frame after every step, none of it counted in a step.
     assert timing["first_step"] < 0.03
     assert timing["median_step"] <= timing["max_step"] < 0.03
-
-
-@pytest.mark.skipif(
-    not (MAPS / "warehouse-large-140-500.map").is_file(),
-    reason=f"no benchmark maps in {MAPS} (warehouse-large-140-500.map)",
-)
-def test_a_frame_costs_less_than_a_step_on_the_largest_warehouse_map():
-    import gc
-
-    from warehouse_phys.drawing import render
-    from warehouse_phys.planners.pibt import pibt_policy
-
-    env = fleet.parallel_env(layout=str(MAPS / "warehouse-large-140-500.map"), num_robots=1000,
-                             max_cycles=16, observation="local")  # fmt: skip
-    render._floor_image.cache_clear()
-    gc.freeze()  # as the command does: a full collection would land in a step or a frame
-    try:
-        result, frames = simulate(env, pibt_policy(seed=0), steps=16, frames=17)
-    finally:
-        gc.unfreeze()
-    assert len(frames) == 17
-    assert render._floor_image.cache_info().misses == 1  # 38,000 shelves painted once
-    timing = result.timing()  # CPU time, measured in the same process
-    assert timing["median_frame"] <= timing["median_step"]
-    assert timing["frames"] <= result.cpu_seconds
-
-
-@pytest.mark.parametrize(("on_delivery", "seed"), [("park", 2), ("leave", 2), ("park", 3)])
-def test_a_one_shot_run_measures_as_evaluate_fleet_does(on_delivery, seed):
-    env = fleet.parallel_env(num_robots=4, layout="aisles", on_delivery=on_delivery,
-                             max_cycles=30)  # fmt: skip
-    evaluation = evaluate_fleet(env, shortest_path_policy, seeds=range(seed, seed + 1))
-    result, _ = simulate(env, shortest_path_policy, steps=30, seed=seed)
-    assert result.delivered == evaluation.delivered
-    assert result.makespan == evaluation.makespan
-    assert result.sum_of_costs == evaluation.sum_of_costs
-    assert int(result.shortest.sum()) == evaluation.all_shortest_steps
-    assert result.walled_off == evaluation.walled_off
-    assert result.refused == evaluation.refused
-    assert "makespan" in result.summary()
-    assert result.to_json()["sum_of_costs"] == result.sum_of_costs
 
 
 # ------------------------------------------------------------------ instances
@@ -313,7 +250,7 @@ def test_what_a_run_does_not_model_is_said_in_its_output_and_summary(tmp_path, c
     from tests.envs.test_fleet_instances import small_instance
     from warehouse_phys.execution.delays import DelayConfig
     from warehouse_phys.lorr.instances import write_instance
-    from warehouse_phys.planners.pibt import pibt_policy
+    from warehouse_phys.rl.fleet_planners import pibt_policy
 
     delay = DelayConfig(7, 1, 20, "bernoulli", 0.005, "uniform")
     plain = small_instance("scheduler", robots=4)

@@ -171,30 +171,6 @@ def test_default_run_folders_do_not_collide(tmp_path, monkeypatch):
     assert names == ["grid-seed0-20260101-120000", "grid-seed0-20260101-120000-2"]
 
 
-# ------------------------------------------------------------------ --eval
-def test_eval_uses_the_tables_grid_and_refuses_another(tmp_path):
-    assert train_cli.main(
-        ["--env", "grid", "--rows", "3", "--cols", "4", "--episodes", "400", "--quiet",
-         "--out", str(tmp_path / "run")]
-    ) == 0  # fmt: skip
-    table = tmp_path / "run" / "qtable.npz"
-    ok = run_cli("--eval", str(table), cwd=tmp_path)
-    assert ok.returncode == 0, ok.stderr
-    assert "(warehouse-robot-v0, 3x4, 400 episodes, seed 0)" in ok.stdout
-    assert "all 6 targets reached by a shortest path" in ok.stdout
-    # The same table drives the physics-backed robot just as well.
-    phys = run_cli("--eval", str(table), "--env", "phys", cwd=tmp_path)
-    assert phys.returncode == 0, phys.stderr
-    assert "on warehouse-robot-phys-v0" in phys.stdout
-    assert "all 6 targets reached by a shortest path" in phys.stdout
-    wrong = run_cli("--eval", str(table), "--rows", "4", "--cols", "5", cwd=tmp_path)
-    assert wrong.returncode == 2
-    assert wrong.stderr.splitlines() == [
-        f"python -m warehouse_phys.train: error: --eval: {table} holds a table for a "
-        "3x4 grid, not 4x5"
-    ]
-
-
 # --------------------------------------------------------------- bad input
 @pytest.mark.parametrize(
     ("args", "message"),
@@ -271,7 +247,7 @@ def test_render_watches_one_greedy_episode_in_a_window(tmp_path, monkeypatch):
         made.append((kwargs.get("render_mode"), env))
         return env
 
-    monkeypatch.setattr(train_cli.gym, "make", recording_make)
+    monkeypatch.setattr(gym, "make", recording_make)
     steps = []
     real_step = warehouse_phys.WarehouseEnvBase.step
 
@@ -474,7 +450,7 @@ def test_a_failed_write_exits_1_naming_the_file_and_keeps_the_complete_ones(
 ):
     import errno
 
-    import warehouse_phys.viz.plots as plots
+    import warehouse_phys.viz.figures as plots
 
     def disk_full(figure, path):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
@@ -494,7 +470,7 @@ def test_a_failed_write_exits_1_naming_the_file_and_keeps_the_complete_ones(
 @pytest.mark.parametrize("where", ["training", "writing"])
 def test_an_interruption_says_what_was_written(tmp_path, monkeypatch, capsys, where):
     import warehouse_phys.apps.runs as runs
-    import warehouse_phys.viz.plots as plots
+    import warehouse_phys.viz.figures as plots
 
     def interrupt(*args, **kwargs):
         raise KeyboardInterrupt

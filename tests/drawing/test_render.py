@@ -1,12 +1,13 @@
-"""Rendering: rgb_array frames, the ansi picture, the human window and lazy pygame."""
+"""Rendering: rgb_array frames, the human window and lazy pygame (the ansi picture is
+tests/drawing/test_text_frames.py, the map frames tests/drawing/test_map_frames.py)."""
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
-from warehouse_phys import PHYSICS_ENV_ID, Action, WarehouseGrid, WarehouseGridEnv
+from warehouse_phys import PHYSICS_ENV_ID, Action, WarehouseGridEnv
 from warehouse_phys import render as render_module
-from warehouse_phys.drawing.render import WarehouseRenderer, ansi_frame, fleet_ansi_frame
+from warehouse_phys.drawing.render import WarehouseRenderer
 
 ENV_ID = "warehouse-robot-v0"
 CELL = 64
@@ -158,18 +159,6 @@ def test_render_without_mode_warns_and_returns_none():
         assert env.render() is None
 
 
-# ------------------------------------------------------------------------ ansi
-def test_ansi_picture_is_exact():
-    env = gym.make(ENV_ID, render_mode="ansi")
-    env.reset(options={"target": (2, 3)})
-    env.step(Action.RIGHT)
-    assert env.render() == "_ R _ _ _ \n_ _ _ _ _ \n_ _ _ T _ \n_ _ _ _ _ \n"
-
-
-def test_ansi_draws_the_robot_over_the_target():
-    assert ansi_frame(2, 3, robot=(1, 1), target=(1, 1)) == "_ _ _ \n_ R _ \n"
-
-
 # ----------------------------------------------------------------------- human
 def post(event_type, **fields):
     import pygame
@@ -296,126 +285,7 @@ def test_unreadable_sprite_gives_a_clear_error(tmp_path, monkeypatch):
         WarehouseRenderer(2, 2).rgb_array((0, 0), (1, 1))
 
 
-# ------------------------------------------------------------ fleet map frames
-def test_map_colours_stay_apart_from_each_other_and_from_the_floor():
-    colours = render_module.MAP_ROBOT_COLOURS.astype(float)
-    apart = np.linalg.norm(colours[:, None] - colours[None, :], axis=-1)
-    np.fill_diagonal(apart, np.inf)
-    assert len(colours) == 8
-    assert apart.min() > 60
-    marks = [render_module.MAP_FLOOR, render_module.MAP_SHELF, render_module.MAP_PACKAGE,
-             render_module.MAP_DELIVERED]  # fmt: skip
-    for mark in np.array(marks, dtype=float):
-        assert np.linalg.norm(colours - mark, axis=-1).min() > 60
-    background = np.array(marks[:3], dtype=float)  # floor, shelves, packages: apart too
-    apart = np.linalg.norm(background[:, None] - background[None, :], axis=-1)
-    np.fill_diagonal(apart, np.inf)
-    assert apart.min() > 60
-
-
-def test_a_500_by_140_floor_fits_1000_pixels_with_robots_as_squares_of_their_colour():
-    from types import SimpleNamespace
-
-    floor = SimpleNamespace(rows=140, cols=500, shelves=frozenset({(5, 5), (5, 6)}))
-    robots = np.array([(0, 0), (139, 499), (70, 250)])
-    packages = np.array([(1, 1), (0, 499), (5, 7)])
-    frame = render_module.fleet_map_frame(floor, robots, packages, parked=[False, False, True])
-    assert frame.shape == (280, 1000, 3)
-    assert frame.dtype == np.uint8
-    assert (frame[0:2, 0:2] == render_module.MAP_ROBOT_COLOURS[0]).all()
-    assert (frame[278:280, 998:1000] == render_module.MAP_ROBOT_COLOURS[1]).all()
-    assert (frame[140:142, 500:502] == render_module.MAP_DELIVERED).all()  # parked: green
-    assert (frame[2:4, 2:4] == render_module.MAP_PACKAGE).all()
-    assert (frame[10:12, 10:12] == render_module.MAP_SHELF).all()
-    assert (frame[10:12, 14:16] == render_module.MAP_FLOOR).all()  # robot 2's package: delivered
-
-
-def test_a_parked_robot_keeps_its_colour_in_a_green_frame_and_packages_show_under_robots():
-    from types import SimpleNamespace
-
-    floor = SimpleNamespace(rows=3, cols=4, shelves=frozenset())
-    robots = np.array([(0, 0), (2, 3)])
-    packages = np.array([(2, 3), (1, 1)])  # robot_1 stands on robot_0's package
-    frame = render_module.fleet_map_frame(floor, robots, packages, parked=[False, True],
-                                          cell_px=12)  # fmt: skip
-    parked = frame[24:36, 36:48]
-    assert (parked[0] == render_module.MAP_DELIVERED).all()  # the frame's four sides
-    assert (parked[-1] == render_module.MAP_DELIVERED).all()
-    assert (parked[:, 0] == render_module.MAP_DELIVERED).all()
-    assert (parked[:, -1] == render_module.MAP_DELIVERED).all()
-    assert (parked[3, 3] == render_module.MAP_ROBOT_COLOURS[1]).all()  # its colour inside
-    assert (parked[6, 6] == render_module.MAP_PACKAGE).all()  # robot_0's package under it
-    assert (frame[0:12, 0:12] == render_module.MAP_ROBOT_COLOURS[0]).all()  # not framed
-    with pytest.raises(ValueError, match="cell_px must be at least 1"):
-        render_module.fleet_map_frame(floor, robots, packages, cell_px=0)
-
-
-def reference_map_frame(grid, robots, packages, parked, on_floor, px):
-    """What fleet_map_frame promises, painted cell by cell with loops."""
-    frame = np.empty((grid.rows * px, grid.cols * px, 3), dtype=np.uint8)
-
-    def cell(row, col):
-        return frame[row * px : (row + 1) * px, col * px : (col + 1) * px]
-
-    for row in range(grid.rows):
-        for col in range(grid.cols):
-            shelf = (row, col) in grid.shelves
-            cell(row, col)[:] = render_module.MAP_SHELF if shelf else render_module.MAP_FLOOR
-    waiting = [i for i in range(len(robots)) if on_floor[i] and not parked[i]]
-    for i in waiting:
-        cell(*packages[i])[:] = render_module.MAP_PACKAGE
-    colours = render_module.MAP_ROBOT_COLOURS
-    for i in np.flatnonzero(on_floor):
-        small_and_parked = parked[i] and px < 4
-        cell(*robots[i])[:] = render_module.MAP_DELIVERED if small_and_parked else colours[i % 8]
-    border = max(1, px // 6)
-    for i in np.flatnonzero(on_floor & parked) if px >= 4 else []:
-        view = cell(*robots[i])
-        for side in (view[:border], view[-border:], view[:, :border], view[:, -border:]):
-            side[:] = render_module.MAP_DELIVERED
-    occupied = {tuple(robots[i]) for i in np.flatnonzero(on_floor)}
-    for i in waiting if px >= 3 else []:
-        if tuple(packages[i]) in occupied:
-            cell(*packages[i])[px // 3 : px - px // 3, px // 3 : px - px // 3] = (
-                render_module.MAP_PACKAGE
-            )
-    return frame
-
-
-def test_map_frames_paint_what_the_docstring_says_on_random_floors():
-    rng = np.random.default_rng(5)
-    for _ in range(60):
-        rows, cols = (int(x) for x in rng.integers(2, 10, 2))
-        layout = ["".join(rng.choice([".", ".", ".", "#"], cols)) for _ in range(rows)]
-        layout[0] = "." * cols  # a floor needs free cells; shelves elsewhere at random
-        floor = WarehouseGrid.from_layout(layout)
-        n = int(rng.integers(0, 9))
-        robots = rng.integers(0, [rows, cols], (n, 2))
-        packages = rng.integers(0, [rows, cols], (n, 2))
-        parked, on_floor = rng.random(n) < 0.4, rng.random(n) < 0.8
-        px = int(rng.integers(1, 14))
-        frame = render_module.fleet_map_frame(floor, robots, packages, parked=parked,
-                                              on_floor=on_floor, cell_px=px)  # fmt: skip
-        expected = reference_map_frame(floor, robots, packages, parked, on_floor, px)
-        assert (frame == expected).all()
-
-
-def test_a_floor_is_painted_once_however_many_frames_are_drawn():
-    floor = WarehouseGrid.from_layout(["....", ".##.", "...."])
-    render_module._floor_image.cache_clear()
-    empty = render_module.fleet_map_frame(floor, np.zeros((0, 2)), np.zeros((0, 2)), cell_px=5)
-    for col in range(4):
-        frame = render_module.fleet_map_frame(floor, [(0, col)], [(2, 3 - col)], cell_px=5)
-        assert (frame[0:5, col * 5 : col * 5 + 5] == render_module.MAP_ROBOT_COLOURS[0]).all()
-        frame[:] = 0  # a caller's frame is its own: the floor drawn next is untouched
-    info = render_module._floor_image.cache_info()
-    assert (info.misses, info.hits) == (1, 4)
-    again = render_module.fleet_map_frame(floor, np.zeros((0, 2)), np.zeros((0, 2)), cell_px=5)
-    assert (again == empty).all()
-    assert (again[5:10, 5:15] == render_module.MAP_SHELF).all()
-    assert again.flags.writeable
-
-
+# ------------------------------------------------- fleet frames on small cells
 def test_small_fleet_cells_draw_discs_keep_packages_visible_and_frame_the_delivered():
     px = 16  # under FLEET_SPRITE_MIN_PX: array drawing, no sprites
     renderer = WarehouseRenderer(3, 4, cell_px=px)
@@ -434,12 +304,3 @@ def test_small_fleet_cells_draw_discs_keep_packages_visible_and_frame_the_delive
     assert (delivered_cell[px // 2, px // 2] == colours[1]).all()  # its colour inside
     assert (frame[0:px, 0:px] != render_module.DELIVERED_FRAME).any(axis=-1).all()
     renderer.close()
-
-
-def test_fleet_ansi_frame_draws_robots_over_packages_and_hides_robots_off_the_floor():
-    frame = fleet_ansi_frame(
-        2, 3, robots=[(0, 0), (1, 2), (1, 1)], packages=[(1, 2), (0, 1), (0, 2)],
-        shown=[True, True, False], shelves={(1, 0)},
-    )  # fmt: skip
-    # Robot 1 stands on robot 0's package; robot 2 and its package are not shown.
-    assert frame == "0 b _\n# _ 1"

@@ -17,7 +17,8 @@ from warehouse_phys.envs import async_fleet, lorr
 from warehouse_phys.execution.async_grid import AsyncGrid
 from warehouse_phys.execution.delays import DelayConfig
 from warehouse_phys.physics import COLLISION_SLOP, HEADING_SNAP_BOUND
-from warehouse_phys.physics.ticking import TRACKING_MARGIN, check_tick_controller
+from warehouse_phys.physics.tick_controller import check_tick_controller
+from warehouse_phys.physics.ticking import TRACKING_MARGIN
 
 LORR = Path(__file__).resolve().parents[3] / "shared" / "lorr"
 FLOOR = ["S.......", ".##.##..", "........", ".##.##..", "........"]

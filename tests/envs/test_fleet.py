@@ -185,55 +185,6 @@ def test_lifelong_robots_get_new_packages_and_count_deliveries():
     assert total == sum(info["deliveries"] for info in infos.values()) > 0
 
 
-def test_packages_are_never_on_a_robot_or_another_robots_package():
-    env = fleet.parallel_env(num_robots=4, grid_rows=4, grid_cols=5)
-    grid = env.grid
-    for seed in range(200):
-        env.reset(seed=seed)
-        state = env.state().reshape(4, 4)
-        packages = {tuple(p) for p in state[:, 2:]}
-        assert len(packages) == 4
-        assert not packages & {tuple(c) for c in state[:, :2]}
-        assert packages <= set(grid.target_cells)
-
-
-def drawn_in_turn(env, robots, rng):
-    """New packages for ``robots`` drawn one robot at a time (the rule's plain statement)."""
-    cols, packages = env.grid.cols, env.package_cells.copy()
-    taken = np.zeros(env.grid.rows * cols, dtype=bool)
-    taken[env.robot_cells @ [cols, 1]] = True
-    keep = np.ones(env.num_robots, dtype=bool)
-    keep[robots] = False
-    taken[packages[keep] @ [cols, 1]] = True
-    targets = np.array([r * cols + c for r, c in env.grid.target_cells])
-    for robot in robots:
-        for _ in range(8):
-            cell = targets[rng.integers(len(targets))]
-            if not taken[cell]:
-                break
-        else:
-            free = targets[~taken[targets]]
-            cell = free[rng.integers(len(free))]
-        taken[cell] = True
-        packages[robot] = divmod(int(cell), cols)
-    return packages
-
-
-@pytest.mark.parametrize(("n", "side"), [(6, 4), (40, 12)])
-def test_new_packages_drawn_at_once_are_those_drawn_in_turn(n, side):
-    env = fleet.parallel_env(num_robots=n, grid_rows=side, grid_cols=side + 1, lifelong=True)
-    env.reset(seed=n)
-    choose = np.random.default_rng(0)
-    for _ in range(40):
-        robots = np.sort(choose.choice(n, size=int(choose.integers(1, n + 1)), replace=False))
-        in_turn = copy.deepcopy(env.np_random)
-        expected = drawn_in_turn(env, robots.tolist(), in_turn)
-        env._draw_new_packages(robots)
-        assert np.array_equal(env.package_cells, expected)
-        assert env.np_random.bit_generator.state == in_turn.bit_generator.state
-        env.step(dict(zip(env.agents, choose.integers(5, size=n).tolist(), strict=True)))
-
-
 @pytest.mark.parametrize("world", list(WORLDS))
 def test_copies_and_pickles_continue_alike(world):
     env = fleet.parallel_env(num_robots=3, **WORLDS[world])
@@ -253,42 +204,6 @@ def test_copies_and_pickles_continue_alike(world):
                 assert x.keys() == y.keys()
             assert all(np.array_equal(a[0][k], b[0][k]) for k in a[0])
             assert a[4] == b[4]
-
-
-def test_a_fleet_layout_puts_its_robots_on_its_start_cells():
-    layout = ["S...S", ".#.#.", "..S..", "PP.PP"]
-    env = fleet.parallel_env(num_robots=3, layout=layout)
-    env.reset(seed=0)
-    assert env.state().reshape(3, 4)[:, :2].tolist() == [[0, 0], [0, 4], [2, 2]]
-    assert env.starts == [(0, 0), (0, 4), (2, 2)]
-    with pytest.raises(ValueError, match=r"4 robots need 4 start cells; the layout marks 3"):
-        fleet.parallel_env(num_robots=4, layout=layout)
-
-
-@pytest.mark.parametrize(
-    ("kwargs", "error", "message"),
-    [
-        ({"num_robots": 0}, ValueError, "num_robots must be at least 1"),
-        ({"num_robots": 2.0}, TypeError, "num_robots must be an integer"),
-        ({"num_robots": 5, "grid_rows": 2, "grid_cols": 2}, ValueError, "need 5 start cells"),
-        ({"num_robots": 7, "layout": "depot"}, ValueError, "7 robots need 7 package cells away"),
-        ({"num_robots": 4, "layout": "depot", "lifelong": True}, ValueError, "need 8 package"),
-        ({"physics": "yes"}, TypeError, "physics must be a bool"),
-        ({"observation": "pixels"}, ValueError, "observation must be one of"),
-        ({"max_cycles": 0}, ValueError, "max_cycles must be at least 1"),
-        ({"robot_radius": 0.7}, ValueError, "robot_radius 0.7 m must be less than half"),
-        ({"render_mode": "human"}, ValueError, "render_mode must be None or one of"),
-        ({"mass": 3.0}, TypeError, r"unknown argument\(s\) 'mass'; the physical parameters"),
-        ({"num_robots": np.timedelta64(3)}, TypeError, "num_robots must be an integer"),
-        ({"max_cycles": np.timedelta64(4)}, TypeError, "max_cycles must be an integer"),
-        ({"max_cycles": np.timedelta64(7, "s")}, TypeError, "max_cycles must be an integer"),
-        ({"num_robots": np.int64(2**40), "observation": "global"}, ValueError,
-         "1,099,511,627,776 robots would need 36,893,488,147,419,103,232 MiB a step"),
-    ],
-)  # fmt: skip
-def test_bad_arguments_are_refused_by_name(kwargs, error, message):
-    with pytest.raises(error, match=message):
-        fleet.parallel_env(**kwargs)
 
 
 @pytest.mark.parametrize(
@@ -334,19 +249,6 @@ def test_frames_show_every_robot_in_its_colour():
     text = ansi.render()
     assert all(str(i) in text and "abc"[i] in text for i in range(3))
     assert ansi.step(dict.fromkeys(ansi.agents, WAIT))[4]["robot_0"]["refused"] is False
-
-
-def test_each_robots_package_is_uniform_over_the_cells_left_to_it():
-    from tests.envs.test_vector import chi_square_uniform
-
-    env = fleet.parallel_env(num_robots=2)
-    targets = env.grid.target_cells  # the starts (0, 0) and (0, 1) are none of them
-    counts = dict.fromkeys(targets, 0)
-    for seed in range(3000):
-        env.reset(seed=seed)
-        counts[tuple(env.state()[2:4])] += 1  # robot_0 draws first, from every target cell
-    statistic, bound = chi_square_uniform(list(counts.values()))
-    assert statistic < bound
 
 
 # ------------------------------------------------- delivery modes, starts, scale
@@ -432,22 +334,6 @@ def test_ten_thousand_robots_step_on_one_floor():
         fleet.parallel_env(num_robots=10_001, grid_rows=100, grid_cols=200, starts="random")
 
 
-@pytest.mark.parametrize(
-    ("kwargs", "message"),
-    [
-        ({"on_delivery": "vanish"}, "on_delivery must be one of"),
-        ({"starts": "anywhere"}, "starts must be one of"),
-        ({"lifelong": True, "on_delivery": "park"}, "lifelong=True means"),
-        ({"num_robots": 300, "observation": "global", "grid_rows": 40}, "at most 256 robots"),
-        ({"num_robots": 1025, "physics": True, "grid_rows": 40}, "physics world takes at most"),
-        ({"physics": True, "on_delivery": "leave"}, "'leave' is for the grid twin"),
-    ],
-)
-def test_bad_modes_are_refused_by_name(kwargs, message):
-    with pytest.raises(ValueError, match=message):
-        fleet.parallel_env(**kwargs)
-
-
 def test_a_physics_fleet_of_the_most_robots_steps_without_touching():
     n = fleet.MAX_PHYSICS_ROBOTS
     env = fleet.parallel_env(num_robots=n, physics=True, grid_rows=48, grid_cols=48,
@@ -474,7 +360,7 @@ def test_the_aec_form_refuses_a_bad_action_before_anything_changes():
 
 
 def test_frames_mark_a_delivered_robot_and_keep_colours_apart():
-    from warehouse_phys.drawing.render import DELIVERED_FRAME, FLEET_COLOURS
+    from warehouse_phys.drawing.colours import DELIVERED_FRAME, FLEET_COLOURS
 
     colours = np.array(FLEET_COLOURS, dtype=float)
     apart = np.linalg.norm(colours[:, None] - colours[None, :], axis=-1)
@@ -552,19 +438,13 @@ def test_actions_with_thousands_of_digits_are_refused_by_robot(actions, message)
     assert env.steps == 0
 
 
-@pytest.mark.parametrize("keyword", ["num_robots", "max_cycles"])
-def test_counts_with_thousands_of_digits_are_refused_by_name(keyword):
-    with pytest.raises(ValueError, match=f"^{keyword} must be at least 1, got a negative integer"):
-        fleet.parallel_env(**{keyword: -(10**5000)})
-
-
 def test_a_fleet_with_more_packages_than_its_distance_maps_hold_runs_on_guide_paths():
     """Distance maps bounded to two: the other robots' packages are guided (the fleet once
     refused such a fleet at every reset). Deliveries happen, the maps stay in their
     bound, every robot's ``optimal_steps`` is at least its true distance, and exactly it
     for the robots whose packages have maps."""
     from warehouse_phys.planners.distances import DistanceMaps
-    from warehouse_phys.planners.pibt import pibt_policy
+    from warehouse_phys.rl.fleet_planners import pibt_policy
 
     env = fleet.parallel_env(num_robots=12, layout="aisles", on_delivery="new_package",
                              max_cycles=120)  # fmt: skip

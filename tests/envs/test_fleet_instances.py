@@ -1,5 +1,6 @@
 """Fleets of League of Robot Runners instances: starts and errands as the instance says,
-PettingZoo's suites, determinism across processes, the physics twin, clear refusals."""
+PettingZoo's suites, determinism across processes, the physics twin (their refusals:
+``test_fleet_setup.py``)."""
 
 import functools
 import hashlib
@@ -12,7 +13,7 @@ from tests.envs.test_fleet import pettingzoo_quietly
 from warehouse_phys.envs import fleet, lorr
 from warehouse_phys.lorr.errands import NO_ERRAND
 from warehouse_phys.lorr.instances import LorrInstance, write_instance
-from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.grid import WarehouseGrid
 
 with __import__("warnings").catch_warnings():
@@ -113,26 +114,6 @@ def test_the_physics_twin_of_an_instance_fleet_follows_the_grid_twin():
             assert g_rewards == p_rewards
             assert min(info["min_gap"] for info in p_infos.values()) > 0.1
         assert grid.errands.tasks_done == phys.errands.tasks_done == 20  # greedy: the list ran dry
-
-
-@pytest.mark.parametrize(
-    ("kwargs", "message"),
-    [
-        ({"layout": "aisles"}, "an instance gives the floor and the starts; do not give layout"),
-        ({"grid_rows": 4, "starts": "random"}, "do not give grid_rows, starts"),
-        ({"num_robots": 3}, "num_robots=3 but the instance small-roundrobin has teamSize 5"),
-        ({"on_delivery": "park"}, "an instance fleet is lifelong"),
-        ({"instance": 7}, "instance must be a LorrInstance or the path of its JSON file"),
-        ({"instance": "nowhere.json"}, "nowhere.json: no such instance file"),
-        ({"scheduler": lambda r, t, c: r}, "roundrobin.*pass scheduler=None"),
-    ],
-)
-def test_bad_instance_arguments_are_refused_by_name(kwargs, message):
-    kwargs = {"instance": small_instance(), **kwargs}
-    with pytest.raises((ValueError, TypeError), match=message):
-        fleet.parallel_env(**kwargs)
-    with pytest.raises(ValueError, match="scheduler is for a fleet of an instance"):
-        fleet.parallel_env(scheduler=lambda r, t, c: r)
 
 
 def test_the_published_instances_build_and_take_their_first_steps():

@@ -17,7 +17,7 @@ with warnings.catch_warnings():
 
 from tests.envs.test_fleet import pettingzoo_quietly
 from tests.memory import CAN_MEASURE, growth_per_reset
-from warehouse_phys.envs import fleet
+from warehouse_phys.envs import fleet, fleet_setup
 from warehouse_phys.physics import (
     COLLISION_SLOP,
     SNAP_ERROR_BOUND,
@@ -25,7 +25,7 @@ from warehouse_phys.physics import (
     PhysicsConfig,
     check_controller,
 )
-from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.traffic import CLEARANCE_MARGIN, WAIT, check_clearance
 
 LEFT, DOWN, RIGHT, UP = range(4)
@@ -164,7 +164,7 @@ def test_the_robots_the_bound_refuses_would_touch_head_on(monkeypatch):
     radius = 0.5 * (1 - 2 * motion.overshoot + 0.03)  # wider than the head-on approach
     with pytest.raises(ValueError, match="too large for this controller"):
         check_clearance(2 * radius, *motion)
-    monkeypatch.setattr(fleet, "check_clearance", lambda *args: None)
+    monkeypatch.setattr(fleet_setup, "check_clearance", lambda *args: None)
     phys = fleet.parallel_env(num_robots=2, physics=True, layout=["S..S", "...."],
                               robot_radius=radius, **OVERSHOOTING)  # fmt: skip
     phys.reset(seed=0)

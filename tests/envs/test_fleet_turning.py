@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 
 from tests.envs.test_fleet import pettingzoo_quietly
 from tests.envs.test_fleet_physics import TIGHT, accepted_settings, all_pairs_gap
-from warehouse_phys.drawing.render import HEADING_POINTER, fleet_map_frame
+from warehouse_phys.drawing.colours import HEADING_POINTER
+from warehouse_phys.drawing.map_frames import fleet_map_frame
 from warehouse_phys.envs import fleet
 from warehouse_phys.physics import (
     COLLISION_SLOP,
@@ -21,7 +22,7 @@ from warehouse_phys.physics import (
     PhysicsConfig,
     check_controller,
 )
-from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.headings import HEADING_MOVES, MOVE_HEADINGS, TurnAction, turning_moves
 from warehouse_phys.world.traffic import WAIT
 

@@ -7,7 +7,8 @@ import pytest
 
 from tests.envs.vector_kinds import GRID_ID, PHYS_ID, assert_same_steps
 from tests.memory import CAN_MEASURE, growth_per_reset
-from warehouse_phys.envs.vector import WarehouseGridVectorEnv, WarehousePhysicsVectorEnv
+from warehouse_phys.envs.vector import WarehouseGridVectorEnv
+from warehouse_phys.envs.vector_physics import WarehousePhysicsVectorEnv
 
 
 # ---------------------------------------------------------------- the grid twin

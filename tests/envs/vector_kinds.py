@@ -9,7 +9,8 @@ import numpy as np
 
 import warehouse_phys
 from warehouse_phys import SNAP_ERROR_BOUND
-from warehouse_phys.envs.vector import WarehouseGridVectorEnv, WarehousePhysicsVectorEnv
+from warehouse_phys.envs.vector import WarehouseGridVectorEnv
+from warehouse_phys.envs.vector_physics import WarehousePhysicsVectorEnv
 
 GRID_ID = warehouse_phys.GRID_ENV_ID
 PHYS_ID = warehouse_phys.PHYSICS_ENV_ID

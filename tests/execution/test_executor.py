@@ -8,7 +8,8 @@ from hypothesis import strategies as st
 
 from tests.world.random_floors import shelf_layout
 from warehouse_phys.execution.async_grid import AsyncGrid, gap_conflicts, swap_conflicts
-from warehouse_phys.execution.executor import DEFAULT_MIN_GAP, Executor
+from warehouse_phys.execution.executor import Executor
+from warehouse_phys.execution.following import DEFAULT_MIN_GAP
 from warehouse_phys.execution.windows import pibt_window
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.world.grid import WarehouseGrid
@@ -194,28 +195,6 @@ def straight_path(executor, steps):
     return np.stack([start + np.array([0, s]) for s in range(steps + 1)], axis=1)
 
 
-@pytest.mark.parametrize(
-    ("min_gap", "expected"),
-    [  # robot 0 takes 3 ticks a move, robot 1, behind it, 2
-        # Both start; robot 1 would come 2/3 of a cell behind, so stops; both end.
-        (DEFAULT_MIN_GAP, [([True, True], [1, 1]), ([True, False], [2, 1]),
-                           ([True, True], [0, 0])]),
-        # A whole cell: robot 1 waits a tick, then goes only as robot 0 goes.
-        (1.0, [([True, False], [1, 0]), ([True, True], [2, 1]), ([True, True], [0, 0])]),
-    ],
-)  # fmt: skip
-def test_a_follower_keeps_its_gap_to_the_robot_ahead(min_gap, expected):
-    grid = WarehouseGrid.from_layout(["S" + "." * 9, "." * 10])
-    executor = Executor(grid, np.array([(0, 1), (0, 0)]), [3, 2], min_gap)
-    executor.add_plan(straight_path(executor, 1))
-    heads = []
-    for _ in range(3):
-        report = executor.step()
-        heads.append((report.go.tolist(), executor.done.tolist()))
-    assert heads == expected
-    assert executor.window_done()
-
-
 def test_a_line_of_robots_moves_as_one_and_stops_behind_a_delay():
     """Moves of 3 ticks: a line of four goes together, a cell apart; when the head is
     delayed in mid-move, the robots behind it stop too (they would close in)."""
@@ -294,69 +273,6 @@ def test_a_rotation_goes_as_one(ticks):
     assert (executor.plan_cells() == turned).all()
     assert executor.window_done()
     assert not executor.done.any()
-
-
-def test_plans_that_cannot_be_executed_are_refused_in_one_line():
-    grid = WarehouseGrid.from_layout(["S.", ".."])
-    cells = np.array([(0, 0), (0, 1), (1, 1), (1, 0)])
-    executor = Executor(grid, cells, [1, 2, 1, 1])
-    turned = cells[[1, 2, 3, 0]]
-    cases = {
-        r"rotates robot 0 .ticks_needed 1": np.stack([cells, turned], axis=1),
-        "swaps robots": np.stack([cells, cells[[1, 0, 2, 3]]], axis=1),
-        "puts robots": np.stack([cells, cells[[1, 1, 2, 3]]], axis=1),
-        "not a move": np.stack([cells, cells[[2, 1, 0, 3]]], axis=1),
-        "must start from plan_cells": np.stack([turned, turned], axis=1),
-        "shape": cells,
-    }
-    for message, path in cases.items():
-        with pytest.raises(ValueError, match=message) as error:
-            executor.add_plan(path)
-        assert "\n" not in str(error.value)
-    assert executor.window_done()  # nothing half-added
-    wide = Executor(grid, cells, 1, min_gap=0.8)  # a rotation passes corners sqrt(1/2) apart
-    with pytest.raises(ValueError, match=r"rotates robot 0 .*min_gap 0.8"):
-        wide.add_plan(np.stack([cells, turned], axis=1))
-
-
-@pytest.mark.parametrize(
-    ("cells", "ticks", "message"),
-    [([(0, 0), (0, 0)], 1, "share a cell"), ([(0, 9)], 1, "off the floor"),
-     ([(0, 0)], 0, "at least 1"), ([(0, 0)], [1, 2], "one per robot")],
-)  # fmt: skip
-def test_fleets_that_cannot_be_executed_are_refused(cells, ticks, message):
-    grid = WarehouseGrid.from_layout(["S.", ".."])
-    with pytest.raises(ValueError, match=message):
-        Executor(grid, np.array(cells), ticks)
-    with pytest.raises(TypeError, match="ticks_needed"):
-        Executor(grid, np.array([(0, 0)]), 1.5)
-    for gap in (0, -0.5, 1.5, float("nan")):
-        with pytest.raises(ValueError, match="min_gap must be in"):
-            Executor(grid, np.array([(0, 0)]), 1, gap)
-    with pytest.raises(TypeError, match="min_gap"):
-        Executor(grid, np.array([(0, 0)]), 1, "0.8")
-
-
-def test_delays_must_be_one_flag_a_robot():
-    executor = corridor(2, 1)
-    with pytest.raises(ValueError, match="delayed"):
-        executor.step(np.array([1, 0]))
-
-
-def test_round_a_corner_a_follower_keeps_its_gap_and_arrives_only_as_its_leader_leaves():
-    """Robot 0 (10 ticks a move) goes down out of (0, 1) as robot 1 (2 ticks) follows in
-    from the left: robot 1 starts once the gap allows, then waits in mid-move and ends
-    its move on the tick robot 0's ends, not before (one robot leaves a cell at a time)."""
-    grid = WarehouseGrid.from_layout(["S..", "..."])
-    executor = Executor(grid, np.array([(0, 1), (0, 0)]), [10, 2])
-    executor.add_plan(np.array([[(0, 1), (1, 1)], [(0, 0), (0, 1)]]))
-    follower = []
-    for _ in range(10):
-        executor.step()
-        follower.append(int(executor.done[1]))
-    # sqrt(l**2 + (1 - f)**2) >= sqrt(1/2): half way (f = 1/2) once l >= 1/2.
-    assert follower == [0, 0, 0, 0, 1, 1, 1, 1, 1, 0]
-    assert executor.held().tolist() == [[4, 4], [1, 1]]
 
 
 def test_turning_robots_take_ticks_to_turn_and_their_plans_are_checked():

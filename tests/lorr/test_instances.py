@@ -233,14 +233,14 @@ def test_random_instances_round_trip(tmp_path_factory, rows, cols, shelf_bits, y
 
 
 def test_files_that_are_no_text_or_too_large_are_refused_in_one_line(tmp_path, monkeypatch):
-    from warehouse_phys.lorr import instances
+    from warehouse_phys.lorr import instance_files
 
     path = write_files(tmp_path)
     path.write_bytes(b"\xff\xfe{}")
     with pytest.raises(ValueError, match="not UTF-8 text; not a LoRR instance"):
         read_instance(path)
     path = write_files(tmp_path)
-    monkeypatch.setattr(instances, "MAX_LIST_BYTES", 8)
+    monkeypatch.setattr(instance_files, "MAX_LIST_BYTES", 8)
     with pytest.raises(
         ValueError, match=r"a\.agents: larger than any start file this reader takes"
     ):

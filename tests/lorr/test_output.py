@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tests.envs.test_fleet_instances import small_instance
-from warehouse_phys.apps.simulate import simulate
+from warehouse_phys.apps.simulate_lockstep import simulate
 from warehouse_phys.envs import fleet
 from warehouse_phys.lorr.output import (
     GRID_LETTERS,
@@ -15,7 +15,7 @@ from warehouse_phys.lorr.output import (
     replay,
     write_output,
 )
-from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.rl.fleet_planners import pibt_policy
 
 STEPS = 40
 

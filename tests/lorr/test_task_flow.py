@@ -9,7 +9,7 @@ from warehouse_phys.envs import fleet
 from warehouse_phys.lorr.instances import LorrInstance
 from warehouse_phys.lorr.scheduling import least_makespan
 from warehouse_phys.lorr.task_flow import congestion_free_flow
-from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.grid import WarehouseGrid
 
 GRID = WarehouseGrid(6, 7)

@@ -1,5 +1,6 @@
 """The physics twin of asynchronous execution: bodies follow their nominal positions tick
-by tick, end on the grid twin's cells, and keep the clearance the module derives."""
+by tick, end on the grid twin's cells, and keep the clearance the module derives (the
+check that measures it: test_tick_controller.py; a tick's arguments: test_tick_arguments.py)."""
 
 import copy
 import inspect
@@ -19,16 +20,14 @@ from warehouse_phys.physics import (
     PhysicsConfig,
 )
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
+from warehouse_phys.physics.tick_controller import check_tick_controller, required_min_gap
 from warehouse_phys.physics.ticking import (
     HEADING_STEPS,
     QUARTER,
-    TRACKING_MARGIN,
     angle_errors,
-    check_tick_controller,
     default_tick_steps,
     nominal_angles,
     nominal_positions,
-    required_min_gap,
     tick_fractions,
     tracking_errors,
 )
@@ -157,19 +156,6 @@ def test_executed_plans_keep_bodies_apart_and_on_the_grid_twins_cells(setting, s
         goals[arrived] = rows_cols(rng.choice(free, int(arrived.sum())))
 
 
-def test_the_clearance_formula_is_the_modules():
-    motion = check_tick_controller(CONFIG, 10)
-    reach = motion.tracking_error + TRACKING_MARGIN
-    expected = CONFIG.robot_diameter - COLLISION_SLOP + 2 * reach
-    assert required_min_gap(CONFIG, 10) == pytest.approx(expected, abs=1e-12)
-    # The default robot at 10 ticks a move: 4 steps a tick, a cell in 40 steps, and the
-    # body a step behind at a move's start: e = 1/40 cell.
-    assert default_tick_steps(CONFIG, 10) == 4
-    assert motion.tracking_error == pytest.approx(1 / 40, abs=1e-9)
-    assert motion.snap_error < SNAP_ERROR_BOUND / 2
-    assert check_tick_controller(CONFIG, 10, 4) is motion  # cached
-
-
 def drive_right(world, twin, ticks):
     """Drive three robots right (to the floor's edge) tick by tick, each with its own
     GO pattern; their recorded paths."""
@@ -215,82 +201,6 @@ def test_a_robot_at_rest_holds_its_centre_and_an_ended_move_snaps_onto_the_centr
     world.move(world.cells)  # every robot at rest: a lock-step move may follow
     halfway = nominal_positions([[0, 0]], [[0, 1]], np.array([[0.25, 0.5]]))
     assert np.array_equal(halfway, [[[0, 0.25], [0, 0.5]]])
-
-
-#: Two robots, the first beside a shelf (below it).
-START_PAIR = [[0, 1], [3, 0]]
-
-
-def bad_tick(world, **changes):
-    n = world.n_robots
-    arguments = {"left": world.cells.copy(), "entered": world.cells + np.array([0, 1]),
-                 "before": np.zeros(n), "after": np.full(n, 0.5),
-                 "ended": np.zeros(n, dtype=bool), "tick_steps": 3}  # fmt: skip
-    arguments.update(changes)
-    return world.drive_tick(**arguments)
-
-
-@pytest.mark.parametrize(
-    ("changes", "error", "name"),
-    [
-        ({"left": np.zeros((2, 2))}, TypeError, "left"),
-        ({"left": np.zeros((3, 2), dtype=int)}, ValueError, "left"),
-        ({"left": np.array([[0, 2], [3, 0]])}, ValueError, "left"),
-        ({"entered": np.array([[1, 2], [3, 1]])}, ValueError, "entered"),  # diagonal
-        ({"entered": np.array([[1, 1], [3, 1]])}, ValueError, "entered"),  # a shelf
-        ({"entered": np.array([[-1, 1], [3, 1]])}, ValueError, "entered"),  # off the floor
-        ({"entered": np.array([[0, 2]])}, ValueError, "entered"),
-        ({"before": np.array([-0.1, 0.0])}, ValueError, "before"),
-        ({"before": np.array([0.1, 0.0])}, ValueError, "before"),  # not where it was
-        ({"before": np.zeros(3)}, ValueError, "before"),
-        ({"before": np.array(["a", "b"])}, TypeError, "before"),
-        ({"after": np.array([1.5, 0.5])}, ValueError, "after"),
-        ({"after": np.array([np.nan, 0.5])}, ValueError, "after"),
-        ({"ended": np.array([True, False])}, ValueError, "ended"),
-        ({"ended": np.array([1, 0])}, TypeError, "ended"),
-        ({"ended": np.zeros(3, dtype=bool)}, ValueError, "ended"),
-        ({"after": np.array([1.0, 0.5])}, ValueError, "ended"),  # done, but not ended
-        ({"tick_steps": 0}, ValueError, "tick_steps"),
-        ({"tick_steps": 2.0}, TypeError, "tick_steps"),
-    ],
-)
-def test_bad_arguments_get_one_line_errors_naming_them(changes, error, name):
-    world = BatchedPhysicsWorld(FLOOR, CONFIG, START_PAIR)
-    with pytest.raises(error) as raised:
-        bad_tick(world, **changes)
-    assert str(raised.value).startswith(name)
-    assert "\n" not in str(raised.value)
-
-
-def test_a_robot_in_mid_move_must_go_on_where_it_was_going():
-    world = BatchedPhysicsWorld(FLOOR, CONFIG, START_PAIR)
-    bad_tick(world)  # both robots halfway into the cell to their right
-    with pytest.raises(ValueError, match=r"^entered: robot 0 is in mid-move into \(0, 2\)"):
-        bad_tick(world, entered=np.array([[0, 0], [3, 1]]), before=np.full(2, 0.5))
-    world = BatchedPhysicsWorld(FLOOR, CONFIG, START_PAIR)
-    with pytest.raises(ValueError, match=r"^after: robot 0 has no move"):
-        bad_tick(world, entered=np.array([[0, 1], [3, 1]]))
-
-
-@pytest.mark.parametrize(
-    ("config", "ticks", "steps", "match"),
-    [
-        (CONFIG, 5, 1, "faster than max_speed 6 m/s; use at least 10 ticks a move"),
-        (CONFIG, 10, 1, "it could touch a wall"),
-        (CONFIG, 3, 5, "from the centre, not within half the bound"),
-        (PhysicsConfig(max_force=300.0), 3, 5, r"move from \(0, 0\) to \(0, 1\) ends on \(0, 0\)"),
-        (PhysicsConfig(robot_radius=0.48), 10, 6, "need a min_gap of 1.01 cells, more than one"),
-    ],
-)
-def test_settings_the_bodies_cannot_follow_are_refused_naming_them(config, ticks, steps, match):
-    with pytest.raises(ValueError, match=match) as raised:
-        required_min_gap(config, ticks, steps)
-    assert f"ticks_per_move {ticks}" in str(raised.value)
-    assert "\n" not in str(raised.value)
-    with pytest.raises(ValueError, match="ticks_per_move"):
-        check_tick_controller(CONFIG, 0)
-    with pytest.raises(TypeError, match="tick_steps"):
-        check_tick_controller(CONFIG, 3, 2.5)
 
 
 # ---------------------------------------------------------------------- turning robots
@@ -353,26 +263,6 @@ def test_turning_bodies_follow_their_nominal_angles_and_centres_at_every_physics
     assert worst > 0.5 * motion.angle_error  # the probes' error is met, not far off
 
 
-def test_the_turning_check_measures_angles_and_counts_turns_in_e():
-    for ticks in (3, 10):
-        steps = default_tick_steps(CONFIG, ticks)
-        motion = check_tick_controller(CONFIG, ticks, turning=True)
-        # A turn is a quarter turn in ticks x steps steps; the body a step behind at its start.
-        assert motion.angle_error == pytest.approx(QUARTER / (ticks * steps), rel=1e-9)
-        assert motion.heading_error < HEADING_SNAP_BOUND / 2
-        assert motion.tracking_error >= check_tick_controller(CONFIG, ticks).tracking_error
-        reach = motion.tracking_error + TRACKING_MARGIN
-        expected = CONFIG.robot_diameter - COLLISION_SLOP + 2 * reach
-        assert required_min_gap(CONFIG, ticks, turning=True) == pytest.approx(expected, abs=1e-12)
-        assert check_tick_controller(CONFIG, ticks, steps, turning=True) is motion  # cached
-    # A setting whose moves pass but whose turns end too far off their heading.
-    config = PhysicsConfig(gain=20.0)
-    assert check_tick_controller(config, 10, 4).snap_error < SNAP_ERROR_BOUND / 2
-    with pytest.raises(ValueError, match=r"ticks_per_move 10 .* rad off its heading") as raised:
-        required_min_gap(config, 10, 4, turning=True)
-    assert "\n" not in str(raised.value)
-
-
 def test_a_turn_stopped_halfway_goes_on_snaps_onto_its_heading_and_a_copy_follows():
     world = BatchedPhysicsWorld(FLOOR, CONFIG, [[3, 3]], record_path=True, headings=[0])
     here, east, north = np.array([[3, 3]]), np.array([0]), np.array([3])
@@ -406,47 +296,3 @@ def test_a_turn_stopped_halfway_goes_on_snaps_onto_its_heading_and_a_copy_follow
                                headings_before=north, headings_after=north)  # fmt: skip
     assert np.array_equal(read, ahead)
     assert np.array_equal(world.positions(), ahead)
-
-
-def bad_turning_tick(world, **changes):
-    n = world.n_robots
-    arguments = {"left": world.cells.copy(), "entered": world.cells.copy(),
-                 "before": np.zeros(n), "after": np.full(n, 0.5),
-                 "ended": np.zeros(n, dtype=bool), "tick_steps": 3,
-                 "headings_before": np.zeros(n, dtype=int),
-                 "headings_after": np.array([1, 3])}  # fmt: skip
-    arguments.update(changes)
-    arguments = {name: value for name, value in arguments.items() if value is not None}
-    return world.drive_tick(**arguments)
-
-
-@pytest.mark.parametrize(
-    ("turning", "changes", "error", "name"),
-    [
-        (True, {"headings_before": None}, TypeError, "headings_before"),
-        (True, {"headings_after": None}, TypeError, "headings_after"),
-        (False, {}, TypeError, "headings_before"),  # given to robots that do not turn
-        (False, {"headings_before": None}, TypeError, "headings_after"),
-        (True, {"headings_before": np.zeros(2)}, TypeError, "headings_before"),
-        (True, {"headings_after": np.zeros(3, dtype=int)}, ValueError, "headings_after"),
-        (True, {"headings_after": np.array([4, 0])}, ValueError, "headings_after"),
-        (True, {"headings_before": np.array([1, 0])}, ValueError, "headings_before"),  # faces 0
-        (True, {"headings_after": np.array([2, 3])}, ValueError, "headings_after"),  # half turn
-        (True, {"entered": np.array([[0, 2], [3, 0]])}, ValueError, "entered"),  # turns and moves
-        (
-            True,
-            {"headings_after": np.zeros(2, int), "entered": np.array([[0, 2], [2, 0]])},
-            ValueError,
-            "entered",
-        ),  # robot 1 faces east, moves north
-        (True, {"headings_after": np.array([0, 3])}, ValueError, "after"),  # robot 0 does nothing
-    ],
-)
-def test_bad_turning_arguments_get_one_line_errors_naming_them(turning, changes, error, name):
-    world = BatchedPhysicsWorld(FLOOR, CONFIG, START_PAIR, headings=[0, 0] if turning else None)
-    if not turning:
-        changes = {"entered": world.cells + np.array([0, 1]), **changes}
-    with pytest.raises(error) as raised:
-        bad_turning_tick(world, **changes)
-    assert str(raised.value).startswith(name)
-    assert "\n" not in str(raised.value)

@@ -13,7 +13,8 @@ from tests.conftest import ROOT
 from tests.planners.test_guidance import TWO_AISLES, play
 from tests.world.random_floors import shelf_layout
 from warehouse_phys.envs import fleet
-from warehouse_phys.planners.guidance import GuidanceConfig, GuidedPIBT
+from warehouse_phys.planners.guidance import GuidedPIBT
+from warehouse_phys.planners.guidance_config import GuidanceConfig
 from warehouse_phys.planners.operations import OperationPIBT, local_offsets, operation_table
 from warehouse_phys.rl.fleet_planners import planner_policy
 from warehouse_phys.world.grid import WarehouseGrid

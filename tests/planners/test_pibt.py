@@ -11,8 +11,9 @@ from hypothesis import strategies as st
 from tests.world.random_floors import shelf_layout
 from warehouse_phys.envs import fleet
 from warehouse_phys.planners.distances import DistanceMaps
-from warehouse_phys.planners.pibt import PIBT, pibt_policy
+from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.rl.fleet_evaluation import evaluate_fleet, evaluate_throughput
+from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.grid import Action, WarehouseGrid
 from warehouse_phys.world.traffic import WAIT, moves_refused_by_floor, resolve_moves
 

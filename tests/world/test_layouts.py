@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 import warehouse_phys
 from warehouse_phys import layouts as layouts_module
 from warehouse_phys.files.atomic import temporary_files
-from warehouse_phys.world.grid import MAX_SIDE, WarehouseGrid
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layout_text import MAX_SIDE
 from warehouse_phys.world.layouts import (
     PRESETS,
     preset_ids,

@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 from warehouse_phys.apps.interrupts import deferred
 from warehouse_phys.apps.runs import ENVIRONMENTS, Floor
-from warehouse_phys.world.grid import MAX_SIDE, MIN_SIDE, WarehouseGrid
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layout_text import MAX_SIDE, MIN_SIDE
 from warehouse_phys.world.layouts import FLEET_PRESETS, PRESETS, read_movingai
 
 if TYPE_CHECKING:

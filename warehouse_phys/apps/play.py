@@ -46,15 +46,13 @@ from warehouse_phys.apps.cli import (
     floor_from_args,
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
+from warehouse_phys.drawing.display import NoDisplayError, check_display, import_pygame
 from warehouse_phys.drawing.render import (
     DEFAULT_CELL_PX,
     MAX_FRAME_PIXELS,
     MAX_FRAME_SIDE_PX,
     FrameTooLargeError,
-    NoDisplayError,
-    check_display,
     fit_text,
-    import_pygame,
 )
 from warehouse_phys.envs import WarehousePhysicsEnv
 from warehouse_phys.envs.fleet import WarehouseFleetEnv

@@ -38,12 +38,10 @@ from warehouse_phys.rl.fleet_learning import (
     train_fleet,
     training_steps,
 )
+from warehouse_phys.rl.greedy_policy import Evaluation, evaluate, greedy_action
 from warehouse_phys.rl.qlearning import (
-    Evaluation,
     QLearningConfig,
     TrainingResult,
-    evaluate,
-    greedy_action,
     save_q_table,
     table_metadata,
     train,
@@ -318,7 +316,7 @@ def fleet_comparison(env: WarehouseFleetEnv, q: Any) -> dict[str, FleetEvaluatio
     """The learned table's policy (:func:`greedy_fleet_policy`), the shortest-path
     baseline, the random policy and the PIBT planner on ``env``, over
     :data:`EVALUATION_SEEDS`, by name."""
-    from warehouse_phys.planners.pibt import pibt_policy
+    from warehouse_phys.rl.fleet_planners import pibt_policy
 
     policies = {
         "learned": greedy_fleet_policy(q),
@@ -376,7 +374,8 @@ def _write_run(
     and ``summary.json``. The summary is ``head`` (what ran, on which floor), then the
     configuration, the version, the start and the training time, ``training`` (the
     records in numbers), the learning curve, ``evaluation`` and the files; returns it."""
-    from warehouse_phys.viz.plots import learning_curve_figure, save_figure
+    from warehouse_phys.viz.figures import save_figure
+    from warehouse_phys.viz.plots import learning_curve_figure
 
     folder.write(TABLE_FILE, lambda path: save_q_table(path, result.q, metadata))
     figure = learning_curve_figure(result, title)

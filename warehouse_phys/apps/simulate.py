@@ -17,9 +17,9 @@ package; ``--physics`` drives the physics twin. The command prints the throughpu
 (deliveries per step), deliveries, waits and refused moves (one-shot, also the
 packages delivered, the makespan, the sum of costs against the shortest paths' and
 the packages walled off); when it is cheap (robots x steps at most
-:data:`COMPARE_BUDGET` on the grid; ``--no-compare`` skips it) it runs the
-shortest-path and random baselines on the same floor, seed and steps and names a
-policy that does worse. It writes a run folder (default
+:data:`~warehouse_phys.apps.simulate_lockstep.COMPARE_BUDGET` on the grid;
+``--no-compare`` skips it) it runs the shortest-path and random baselines on the same
+floor, seed and steps and names a policy that does worse. It writes a run folder (default
 ``runs/simulate-<floor>-<robots>-<policy>-seed<seed>-<time>``): ``summary.json``
 (with the comparison), ``throughput.png`` (deliveries over time), ``congestion.png``
 (waits on each cell) and ``fleet.gif`` (``--frames`` frames evenly spread, sized to
@@ -49,7 +49,12 @@ ticks too: :mod:`warehouse_phys.apps.simulate_async` has the details.
 slowest of the others (frames apart), and of the frames.
 SIGTERM stops it as Ctrl-C does (exit status 143).
 
-One command line: its length is its options, its measures and its run folder.
+The command line is this module: its options, its checks and its messages. It runs one of
+two modes, each a module, over what both share (no mode imports the other):
+:mod:`~warehouse_phys.apps.simulate_lockstep` (:func:`simulate`, the baselines),
+:mod:`~warehouse_phys.apps.simulate_async` (the run on ticks) and
+:mod:`~warehouse_phys.apps.simulate_results` (the :class:`Simulation` record, the
+policies by name, the run folder's files).
 """
 
 from __future__ import annotations
@@ -57,10 +62,8 @@ from __future__ import annotations
 import argparse
 import functools
 import gc
-import json
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -76,433 +79,63 @@ from warehouse_phys.apps.cli import (
     written_note,
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
-from warehouse_phys.envs.fleet import DELIVERY_MODES, WarehouseFleetEnv, parallel_env
-from warehouse_phys.lorr.instances import PUBLISHED_FIGURES, SCHEDULED, read_instance
-from warehouse_phys.lorr.output import RunRecord, actual_actions, write_output
-from warehouse_phys.lorr.scheduling import SCHEDULERS
-from warehouse_phys.rl.fleet_evaluation import (
-    FleetPolicy,
-    compare_policies,
-    random_fleet_policy,
-    shortest_path_policy,
-    walled_off_packages,
-    worse_policies,
+from warehouse_phys.apps.simulate_async import (
+    add_tick_arguments,
+    default_ticks,
+    simulate_ticks,
+    tick_fleet,
+    tick_options,
 )
+from warehouse_phys.apps.simulate_lockstep import (
+    BASELINES,
+    COMPARE_BUDGET,
+    comparison_table,
+    run_baselines,
+    simulate,
+)
+from warehouse_phys.apps.simulate_results import (
+    DEFAULT_STEPS,
+    INSTANCE_STEPS,
+    POLICIES,
+    RUN_FILES,
+    Simulation,
+    make_policy,
+    write_lorr_output,
+    write_run_files,
+)
+from warehouse_phys.envs.fleet import WarehouseFleetEnv, parallel_env
+from warehouse_phys.envs.fleet_setup import DELIVERY_MODES
+from warehouse_phys.lorr.instances import SCHEDULED, read_instance
+from warehouse_phys.lorr.output import RunRecord
+from warehouse_phys.lorr.scheduling import SCHEDULERS
+from warehouse_phys.rl.fleet_evaluation import FleetPolicy
 from warehouse_phys.world.headings import MOVE_MODELS
 from warehouse_phys.world.layouts import FLEET_PRESETS, PRESETS
 
+#: The command's names, its own and those its modes' modules define: all import from here.
+__all__ = [
+    "BASELINES",
+    "COMPARE_BUDGET",
+    "DEFAULT_FRAMES",
+    "DEFAULT_RUNS_DIR",
+    "DEFAULT_STEPS",
+    "INSTANCE_STEPS",
+    "POLICIES",
+    "PROG",
+    "RUN_FILES",
+    "Simulation",
+    "build_parser",
+    "comparison_table",
+    "main",
+    "make_policy",
+    "run_baselines",
+    "simulate",
+]
+
 PROG = "python -m warehouse_phys.simulate"
-POLICIES = ("pibt", "guided", "shortest", "random")
-RUN_FILES = ("summary.json", "throughput.png", "congestion.png", "fleet.gif", "lorr-output.json")
 DEFAULT_RUNS_DIR = Path("runs")
 #: Frames of the GIF by default: enough to see the traffic, few enough to stay small.
 DEFAULT_FRAMES = 64
-#: The baselines a run is compared with, when that is cheap.
-BASELINES = ("shortest", "random")
-#: Robot-steps (robots x steps) up to which the command also runs the baselines: a few
-#: seconds on the grid; the physics world is never compared.
-COMPARE_BUDGET = 200_000
-#: Steps of a run by default, and of an instance's (the competition's count).
-DEFAULT_STEPS, INSTANCE_STEPS = 256, 5000
-
-
-@dataclass(frozen=True)
-class Simulation:
-    """What a fleet did in one run of :func:`simulate`."""
-
-    layout: str
-    robots: int
-    policy: str
-    seed: int
-    on_delivery: str
-    physics: bool
-    #: Deliveries at each joint step.
-    deliveries: np.ndarray
-    #: Waits counted on each cell, ``(rows, cols)``: a robot that had not delivered and
-    #: stayed on its cell for a step (asked to WAIT, refused or bumping).
-    waits: np.ndarray
-    #: Moves that traffic turned into waits.
-    refused: int
-    #: Seconds of CPU time the steps took, the environment and the policy together
-    #: (frames apart; the reset is ``reset_seconds``).
-    cpu_seconds: float
-    #: One-shot runs only (``on_delivery`` ``"park"`` or ``"leave"``): the step at which
-    #: each robot delivered, 0 for a robot that did not, ``(robots,)``.
-    delivered_at: np.ndarray | None = None
-    #: One-shot runs only: each robot's shortest path to its package from its start.
-    shortest: np.ndarray | None = None
-    #: One-shot runs only: undelivered packages that parked robots wall off at the end.
-    walled_off: int = 0
-    #: CPU seconds of the reset, and of each step (policy and environment, no frames).
-    reset_seconds: float = 0.0
-    step_seconds: np.ndarray | None = None
-    #: CPU seconds of drawing each frame.
-    frame_seconds: np.ndarray | None = None
-    #: ``"grid"`` or ``"rotate"``.
-    moves: str = "grid"
-    #: An instance run: the instance's name and the tasks finished at each step.
-    instance: str | None = None
-    #: What of the instance this run does not model, in words (a lock-step run of a 2026
-    #: instance: its ticks and delays; a run on ticks: turning robots, square robots).
-    not_simulated: tuple[str, ...] = ()
-    tasks: np.ndarray | None = None
-    #: A 2024 or later instance's scheduler, by its name (None for the others).
-    scheduler: str | None = None
-
-    @property
-    def steps(self) -> int:
-        return len(self.deliveries)
-
-    @property
-    def one_shot(self) -> bool:
-        return self.delivered_at is not None
-
-    @property
-    def delivered(self) -> int:
-        """Robots that delivered their package (one-shot), or deliveries (lifelong)."""
-        if self.delivered_at is None:
-            return int(self.deliveries.sum())
-        return int(np.count_nonzero(self.delivered_at))
-
-    @property
-    def makespan(self) -> int:
-        """One-shot: the step of the last delivery, or the run's length when a robot did
-        not deliver."""
-        if self.delivered_at is None or not self.delivered_at.all():
-            return self.steps
-        return int(self.delivered_at.max()) if len(self.delivered_at) else 0
-
-    @property
-    def sum_of_costs(self) -> int:
-        """One-shot: each robot's steps until it delivered, an undelivered robot counted at
-        the run's length, summed."""
-        if self.delivered_at is None:
-            return 0
-        return int(np.where(self.delivered_at > 0, self.delivered_at, self.steps).sum())
-
-    @property
-    def throughput(self) -> float:
-        """Deliveries per step."""
-        return float(self.deliveries.mean()) if self.steps else 0.0
-
-    def measures(self) -> str:
-        """The measures in one line: throughput, deliveries, waits and refused moves; and
-        one-shot, the makespan and the sum of costs against the shortest paths'; an
-        instance run counts errands and tasks, beside the published figure."""
-        if self.tasks is not None:
-            return self._instance_measures()
-        line = (
-            f"throughput {self.throughput:.2f} deliveries/step, "
-            f"{int(self.deliveries.sum()):,} deliveries, {int(self.waits.sum()):,} waits, "
-            f"{self.refused:,} refused moves"
-        )
-        if self.delivered_at is not None and self.shortest is not None:
-            walled = f" ({self.walled_off:,} walled off)" if self.walled_off else ""
-            line += (
-                f"; {self.delivered:,}/{self.robots:,} delivered{walled}, makespan "
-                f"{self.makespan}, sum of costs {self.sum_of_costs:,} against "
-                f"{int(self.shortest.sum()):,} on shortest paths"
-            )
-        return line
-
-    def _instance_measures(self) -> str:
-        steps = max(self.steps, 1)
-        errands, tasks = int(self.deliveries.sum()), int(self.tasks.sum())
-        line = (
-            f"{errands / steps:.2f} errands/step, {tasks / steps:.2f} tasks/step ({errands:,} "
-            f"errands, {tasks:,} tasks), {int(self.waits.sum()):,} waits, "
-            f"{self.refused:,} refused moves"
-        )
-        published = PUBLISHED_FIGURES.get(self.instance or "")
-        if published is not None:
-            line += f"; published on {self.instance}: {published.describe()}"
-        return line
-
-    def lorr_output_options(self) -> dict[str, Any]:
-        """Keywords of :func:`~warehouse_phys.lorr.output.write_output` beyond the
-        record: none in lock step (a run on ticks adds its ticks and delays)."""
-        return {}
-
-    def figure_options(self) -> dict[str, Any]:
-        """Keywords of :func:`~warehouse_phys.viz.plots.throughput_figure`: none in lock
-        step (a run on ticks counts ticks)."""
-        return {}
-
-    def summary(self) -> str:
-        what = "" if self.tasks is None else f", {self.moves} moves"
-        return (
-            f"{self.policy}, {self.robots:,} robots on {self.layout}, {self.steps} steps "
-            f"({self.on_delivery}{what}): {self.measures()}"
-        )
-
-    def timing(self) -> dict[str, float]:
-        """CPU seconds: the reset, the first step, the median and the slowest of the others
-        (no step counts a frame); the frames' drawing, all together and the median one."""
-        times = np.zeros(0) if self.step_seconds is None else self.step_seconds
-        frames = np.zeros(0) if self.frame_seconds is None else self.frame_seconds
-        later = times[1:] if len(times) > 1 else times
-        return {
-            "reset": self.reset_seconds,
-            "first_step": float(times[0]) if len(times) else 0.0,
-            "median_step": float(np.median(later)) if len(later) else 0.0,
-            "max_step": float(later.max()) if len(later) else 0.0,
-            "frames": float(frames.sum()),
-            "median_frame": float(np.median(frames)) if len(frames) else 0.0,
-        }
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "layout": self.layout,
-            "robots": self.robots,
-            "policy": self.policy,
-            "seed": self.seed,
-            "on_delivery": self.on_delivery,
-            "physics": self.physics,
-            "steps": self.steps,
-            "throughput": self.throughput,
-            "deliveries": int(self.deliveries.sum()),
-            "waits": int(self.waits.sum()),
-            "refused": self.refused,
-            "cpu_seconds": self.cpu_seconds,
-            "cpu_seconds_of": self.timing(),
-            "moves": self.moves,
-            **self._one_shot_json(),
-            **self._instance_json(),
-            "deliveries_per_step": self.deliveries.tolist(),
-        }
-
-    def _instance_json(self) -> dict[str, Any]:
-        if self.tasks is None:
-            return {}
-        steps = max(self.steps, 1)
-        published = PUBLISHED_FIGURES.get(self.instance or "")
-        return {
-            "instance": self.instance,
-            "errands": int(self.deliveries.sum()),
-            "errands_per_step": int(self.deliveries.sum()) / steps,
-            "tasks": int(self.tasks.sum()),
-            "tasks_per_step": int(self.tasks.sum()) / steps,
-            "published": None if published is None else published.to_json(),
-            "not_simulated": list(self.not_simulated),
-            "scheduler": self.scheduler,
-            "tasks_per_step_series": self.tasks.tolist(),
-        }
-
-    def _one_shot_json(self) -> dict[str, Any]:
-        if self.delivered_at is None or self.shortest is None:
-            return {}
-        return {
-            "delivered": self.delivered,
-            "undelivered": self.robots - self.delivered,
-            "walled_off": self.walled_off,
-            "makespan": self.makespan,
-            "sum_of_costs": self.sum_of_costs,
-            "shortest_paths": int(self.shortest.sum()),
-        }
-
-
-def make_policy(name: str, env: WarehouseFleetEnv, *, seed: int) -> FleetPolicy:
-    """The fleet policy called ``name``: one of :data:`POLICIES` or a fleet table's path.
-
-    Raises:
-        ValueError: for an unknown name, or a table that does not fit ``env``'s floor.
-    """
-    if name == "pibt":
-        from warehouse_phys.planners.pibt import pibt_policy
-
-        return pibt_policy(seed=seed)
-    if name == "guided":
-        from warehouse_phys.rl.fleet_planners import guided_pibt_policy
-
-        return guided_pibt_policy(seed=seed)
-    if name == "shortest":
-        return shortest_path_policy
-    if name == "random":
-        return random_fleet_policy(seed)
-    if name.endswith(".npz"):
-        from warehouse_phys.rl.fleet_learning import greedy_fleet_policy
-        from warehouse_phys.rl.qlearning import QTableError, load_q_table
-
-        try:
-            q, _ = load_q_table(name, rows=env.grid.rows, cols=env.grid.cols)
-        except QTableError as error:
-            raise ValueError(str(error)) from None
-        expected = [*env.observation_space(env.possible_agents[0]).nvec.tolist(), 5]
-        if list(q.shape) != expected:
-            raise ValueError(
-                f"{name}: a table of shape {q.shape} does not fit this fleet's observations "
-                f"(expected {tuple(expected)})"
-            )
-        return greedy_fleet_policy(q)
-    raise ValueError(f"unknown policy {name!r}: choose {', '.join(POLICIES)} or a table (.npz)")
-
-
-def simulate(
-    env: WarehouseFleetEnv,
-    policy: FleetPolicy,
-    *,
-    steps: int,
-    seed: int = 0,
-    frames: int = 0,
-    on_step: Any = None,
-    name: str = "policy",
-    layout: str = "",
-    cell_px: int | None = None,
-    record: RunRecord | None = None,
-) -> tuple[Simulation, list[np.ndarray]]:
-    """Play ``policy`` on ``env`` from ``env.reset(seed=seed)`` for ``steps`` joint steps
-    (fewer if every robot finished); returns the measures and ``min(frames, steps + 1)``
-    map frames (:func:`~warehouse_phys.drawing.render.fleet_map_frame`, ``cell_px`` pixels a cell,
-    by default what fits 1000 pixels), the first at the reset, the last after the last
-    step, evenly spread (fewer when the episode ends early).
-    ``on_step()`` is called after each step (a progress bar); ``record`` (a
-    :class:`~warehouse_phys.lorr.output.RunRecord`) gets every step's planned and
-    actual actions (an instance fleet's, for the competition's output file)."""
-    from warehouse_phys.drawing.render import fleet_map_frame
-
-    started = time.process_time()
-    observations, infos = env.reset(seed=seed)
-    reset_seconds = time.process_time() - started
-    grid, cols = env.grid, env.grid.cols
-    waits = np.zeros(grid.rows * cols, dtype=np.int64)
-    cells, packages = env.robot_cells, env.package_cells
-    shortest = env.distances.lookup(
-        cells[:, 0] * cols + cells[:, 1], packages[:, 0] * cols + packages[:, 1]
-    ).astype(np.int64)
-    delivered_at = np.zeros(env.num_robots, dtype=np.int64)
-    deliveries, refused, pictures = [], 0, []
-    # The steps after which a frame is taken (0: at the reset), evenly spread.
-    shots = np.unique(np.linspace(0, steps, min(frames, steps + 1)).round().astype(int))
-
-    frame_seconds: list[float] = []
-
-    def picture() -> None:
-        begun = time.process_time()
-        pictures.append(fleet_map_frame(grid, env.robot_cells, env.package_cells, cell_px=cell_px,
-                                        parked=env.parked, on_floor=env.on_floor,
-                                        headings=env.robot_headings))  # fmt: skip
-        frame_seconds.append(time.process_time() - begun)
-
-    if frames:
-        picture()
-    shot = 1  # the next of shots to take
-    errands = env.errands
-    tasks_at: list[int] = []
-    step_seconds: list[float] = []
-    for step in range(steps):
-        if not env.agents:
-            break
-        before = env.robot_cells.copy()
-        headings_before = None if env.robot_headings is None else env.robot_headings.copy()
-        working = env.on_floor & ~env.parked
-        busy = None if errands is None else errands.goals >= 0
-        tasks_before = 0 if errands is None else errands.tasks_done
-        begun = time.process_time()
-        actions = policy(env, observations, infos)
-        planned = time.process_time()
-        delivered_before = int(env.deliveries.sum())
-        observations, _, _, _, infos = env.step(actions)
-        step_seconds.append(time.process_time() - begun)
-        if errands is not None:
-            tasks_at.append(errands.tasks_done - tasks_before)
-        if record is not None:
-            _record_step(record, env, actions, before, headings_before, busy, planned - begun)
-        if len(observations) != len(env.agents):
-            observations = {agent: observations[agent] for agent in env.agents}
-        deliveries.append(int(env.deliveries.sum()) - delivered_before)
-        delivered_at[(env.deliveries > 0) & (delivered_at == 0)] = step + 1
-        refused += sum(info["refused"] for info in infos.values())
-        stayed = working & (env.robot_cells == before).all(axis=1)
-        np.add.at(waits, before[stayed, 0] * cols + before[stayed, 1], 1)
-        if shot < len(shots) and shots[shot] == step + 1:
-            picture()
-            shot += 1
-        if on_step is not None:
-            on_step()
-    result = Simulation(
-        layout=layout or f"{grid.rows}x{grid.cols}",
-        robots=env.num_robots,
-        policy=name,
-        seed=seed,
-        on_delivery=env.on_delivery,
-        physics=env.physics,
-        deliveries=np.array(deliveries, dtype=np.int64),
-        waits=waits.reshape(grid.rows, grid.cols),
-        refused=int(refused),
-        cpu_seconds=float(sum(step_seconds)),
-        reset_seconds=reset_seconds,
-        step_seconds=np.array(step_seconds),
-        frame_seconds=np.array(frame_seconds),
-        moves=env.moves,
-        instance=None if env.instance is None else env.instance.name,
-        not_simulated=_not_simulated(env.instance),
-        tasks=None if errands is None else np.array(tasks_at, dtype=np.int64),
-        scheduler=_scheduler_name(errands),
-        **(
-            {}
-            if env.lifelong
-            else {
-                "delivered_at": delivered_at,
-                "shortest": shortest,
-                "walled_off": walled_off_packages(env) if not delivered_at.all() else 0,
-            }
-        ),
-    )
-    return result, pictures
-
-
-def _record_step(
-    record: RunRecord,
-    env: WarehouseFleetEnv,
-    actions: dict[str, int],
-    before: np.ndarray,
-    headings_before: np.ndarray | None,
-    busy: np.ndarray | None,
-    seconds: float,
-) -> None:
-    """One step of ``env`` into ``record``: planned actions (WAIT for robots that are not
-    live), the actions taken (from the robots' cells and headings), who had an errand."""
-    cols = env.grid.cols
-    planned = np.full(env.num_robots, env.action_space(env.possible_agents[0]).n - 1)
-    for agent, action in actions.items():
-        planned[int(agent.rsplit("_", 1)[1])] = int(action)
-    after = env.robot_cells
-    taken = actual_actions(before @ [cols, 1], after @ [cols, 1], cols,
-                           headings_before, env.robot_headings)  # fmt: skip
-    had = np.ones(env.num_robots, dtype=bool) if busy is None else busy
-    record.add(planned, taken, had, seconds)
-
-
-def run_baselines(
-    env: WarehouseFleetEnv, *, steps: int, seed: int = 0, skip: str = ""
-) -> dict[str, Simulation]:
-    """The :data:`BASELINES` (but ``skip``) on ``env`` with the same seed and steps, by name."""
-    runs: dict[str, Simulation] = {}
-    for name in BASELINES:
-        if name != skip:
-            policy = make_policy(name, env, seed=seed)
-            runs[name], _ = simulate(env, policy, steps=steps, seed=seed, name=name)
-    return runs
-
-
-def comparison_table(runs: dict[str, Simulation]) -> str:
-    """:func:`~warehouse_phys.rl.fleet_evaluation.compare_policies` of ``runs`` by name: one
-    line of measures each, then a ``WORSE:`` line for each run below a baseline."""
-    return compare_policies({name: _Row(run) for name, run in runs.items()})
-
-
-@dataclass(frozen=True)
-class _Row:
-    """A run as :func:`compare_policies` shows it: its measures without its name."""
-
-    run: Simulation
-
-    @property
-    def throughput(self) -> float:
-        return self.run.throughput
-
-    def summary(self) -> str:
-        return self.run.measures()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -550,8 +183,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="what a robot does with a delivered package (default new_package: lifelong)",
     )  # fmt: skip
     parser.add_argument("--physics", action="store_true", help="drive the physics twin")
-    from warehouse_phys.apps.simulate_async import add_tick_arguments
-
     add_tick_arguments(parser)
     parser.add_argument("--seed", type=bounded_int(0, "a seed of 0 or more"), default=0)
     parser.add_argument(
@@ -591,16 +222,11 @@ def main(argv: list[str] | None = None) -> int:
         with opened_run_folder(args.out, new, RUN_FILES, overwrite=args.overwrite) as folder:
             result, frames, record = _run(args, env, policy, label)
             if record is not None:  # before the baselines run the errand list again
-                instance, errands = env.instance, env.errands
-                options = result.lorr_output_options()
-                folder.write(
-                    "lorr-output.json",
-                    lambda path: write_output(path, instance, record, errands, **options),
-                )
+                write_lorr_output(folder, env, result, record)
             runs = {result.policy: result}
             if _compare(args, env):
                 runs |= run_baselines(env, steps=args.steps, seed=args.seed, skip=result.policy)
-            _write(folder, env, result, frames, runs)
+            write_run_files(folder, env, result, frames, runs)
     except (UsageError, RunFolderError) as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
@@ -629,8 +255,6 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
         UsageError: one line, for arguments that do not go together or that the fleet
             refuses, or an instance file that cannot be read.
     """
-    from warehouse_phys.apps.simulate_async import default_ticks, tick_fleet, tick_options
-
     if args.layout is not None and (args.rows is not None or args.cols is not None):
         raise UsageError("give --layout or --rows/--cols, not both")
     if args.scheduler is not None and args.instance is None:
@@ -678,30 +302,6 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
     except (ValueError, TypeError, OSError) as error:
         raise UsageError(str(error).splitlines()[0]) from None
     return env, policy
-
-
-def _scheduler_name(errands: Any) -> str | None:
-    """The name of the scheduler that hands ``errands``' tasks out, None if none does."""
-    scheduler = getattr(errands, "scheduler", None)
-    if scheduler is None:
-        return None
-    return getattr(scheduler, "__name__", type(scheduler).__name__)
-
-
-def _not_simulated(instance: Any) -> tuple[str, ...]:
-    """What of a 2026 instance the lock-step fleet does not model, in words: its actions'
-    ticks (``agentCounter``) and its random delays (``delayConfig``). The command runs
-    such an instance on ticks (:mod:`warehouse_phys.apps.simulate_async`); a lock-step
-    fleet built on one in Python gets these notes."""
-    if instance is None:
-        return ()
-    notes = []
-    if instance.agent_counter not in (None, 1):
-        notes.append(f"agentCounter ({instance.agent_counter} ticks an action): here an "
-                     "action takes one step")  # fmt: skip
-    if instance.delay is not None:
-        notes.append(f"delayConfig (pDelay {instance.delay.p_delay:g}): here no delays")
-    return tuple(notes)
 
 
 def _fleet_layout(name: str) -> str | tuple[str, ...]:
@@ -756,8 +356,6 @@ def _run(
     from tqdm import tqdm
 
     if policy is None:  # on ticks
-        from warehouse_phys.apps.simulate_async import simulate_ticks
-
         play, turning, unit = functools.partial(simulate_ticks, env), env.turning, "tick"
     else:
         play, turning, unit = functools.partial(simulate, env, policy), env.turning, "step"
@@ -778,40 +376,6 @@ def _run(
         finally:
             gc.unfreeze()
     return result, frames, record
-
-
-def _write(
-    folder: Any,
-    env: Any,
-    result: Simulation,
-    frames: list,
-    runs: dict[str, Simulation],
-) -> None:
-    from warehouse_phys.drawing.animation import Animation
-    from warehouse_phys.files.atomic import atomic_write_text
-    from warehouse_phys.viz.plots import congestion_figure, save_figure, throughput_figure
-
-    summary = result.to_json()
-    if len(runs) > 1:
-        keys = ("throughput", "deliveries", "waits", "refused")
-        summary["comparison"] = {
-            name: {key: run.to_json()[key] for key in keys} for name, run in runs.items()
-        }
-        worse = worse_policies(runs)
-        summary["worse_than"] = [{"policy": name, "reference": ref} for name, ref in worse]
-    text = json.dumps(summary, indent=2) + "\n"
-    folder.write("summary.json", lambda path: atomic_write_text(path, text))
-    folder.write(
-        "throughput.png",
-        lambda path: save_figure(
-            throughput_figure(result.deliveries, result.summary(), **result.figure_options()), path
-        ),
-    )
-    folder.write(
-        "congestion.png", lambda path: save_figure(congestion_figure(env.grid, result.waits), path)
-    )
-    if frames:
-        folder.write("fleet.gif", lambda path: Animation(frames, fps=8).save(path))
 
 
 if __name__ == "__main__":

@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from warehouse_phys.apps.cli import UsageError, bounded_int
-from warehouse_phys.apps.simulate import DEFAULT_STEPS, INSTANCE_STEPS, Simulation
+from warehouse_phys.apps.simulate_results import DEFAULT_STEPS, INSTANCE_STEPS, Simulation
 from warehouse_phys.execution.delays import MAX_SEED, DelayConfig
 from warehouse_phys.execution.ticks import LORR_TICKS_PER_MOVE, MAX_TICKS_PER_MOVE
 from warehouse_phys.lorr.instances import LorrInstance
@@ -397,7 +397,7 @@ class _Camera:
         """Draw the floor after ``tick`` ticks if it is one of the shots."""
         if tick not in self.shots or not observations:
             return
-        from warehouse_phys.drawing.render import fleet_map_frame
+        from warehouse_phys.drawing.map_frames import fleet_map_frame
 
         begun = time.process_time()
         cols = self.grid.cols

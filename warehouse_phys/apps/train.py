@@ -31,9 +31,8 @@ the shortest-path policy or random.
 
 Bad arguments and unusable tables end with exit status 2 and a one-line
 message, before anything is written. The algorithm lives in
-:mod:`warehouse_phys.rl.qlearning`; this module is only the command line.
-
-One command line: its length is its options and their one-line errors.
+:mod:`warehouse_phys.rl.qlearning`; this module is only the command line, and ``--eval``
+(a saved table evaluated) is :mod:`warehouse_phys.apps.train_eval`.
 """
 
 from __future__ import annotations
@@ -44,8 +43,6 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
-
-import gymnasium as gym
 
 from warehouse_phys.apps.cli import (
     DEFAULT_ENV,
@@ -67,24 +64,16 @@ from warehouse_phys.apps.runs import (
     RUN_FILES,
     SUMMARY_FILE,
     TABLE_FILE,
-    fleet_comparison,
     train_fleet_run,
     train_run,
 )
-from warehouse_phys.drawing.render import NoDisplayError, check_display
-from warehouse_phys.envs.fleet import MAX_PHYSICS_ROBOTS
+from warehouse_phys.apps.train_eval import evaluate_saved, refuse_training_options, watch
+from warehouse_phys.drawing.display import NoDisplayError, check_display
+from warehouse_phys.envs.fleet_setup import MAX_PHYSICS_ROBOTS
 from warehouse_phys.files.runfolder import RunFolder, RunFolderError, RunWriteError
 from warehouse_phys.rl.fleet_evaluation import compare_policies
-from warehouse_phys.rl.qlearning import (
-    Evaluation,
-    QLearningConfig,
-    QTableError,
-    check_training_memory,
-    evaluate,
-    greedy_action,
-    load_q_table,
-    table_tail,
-)
+from warehouse_phys.rl.greedy_policy import Evaluation
+from warehouse_phys.rl.qlearning import QLearningConfig, check_training_memory, table_tail
 from warehouse_phys.world.layouts import PRESETS
 
 PROG = "python -m warehouse_phys.train"
@@ -207,8 +196,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         if args.eval is not None:
-            _refuse_training_options(args)
-            return _evaluate_saved(args)
+            refuse_training_options(args)
+            return evaluate_saved(args)
         return _train(args, run)
     except (UsageError, RunFolderError) as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
@@ -278,7 +267,7 @@ def _train(args: argparse.Namespace, run: list[RunFolder]) -> int:
         written = [CURVE_FILE, *([GIF_FILE] if outcome.gif_written else []), SUMMARY_FILE]
         print(f"wrote {run_dir / TABLE_FILE}, {', '.join(written[:-1])} and {written[-1]}")
     if args.render:
-        _watch(floor, kind, result.q, seed=args.seed)
+        watch(floor, kind, result.q, seed=args.seed)
     return 0
 
 
@@ -386,116 +375,6 @@ def _progress_bar(episodes: int, env_id: str, *, disable: bool) -> Any:
         disable=True if disable else None,
         file=sys.stderr,
     )
-
-
-# --------------------------------------------------------------- evaluation
-def _refuse_training_options(args: argparse.Namespace) -> None:
-    """``--eval`` trains nothing and writes nothing: options that only training reads are
-    refused, never silently ignored."""
-    defaults = QLearningConfig()
-    given = {
-        "--episodes": args.episodes is not None,
-        "--out": args.out is not None,
-        "--overwrite": args.overwrite,
-        "--robots": args.robots != 1,
-        "--observation": args.observation is not None,
-        "--alpha": args.alpha != defaults.alpha,
-        "--gamma": args.gamma != defaults.gamma,
-        "--no-gif": not args.gif,
-    }
-    ignored = [flag for flag, present in given.items() if present]
-    if ignored:
-        raise UsageError(
-            f"--eval evaluates a saved table (its robots and observation come from the file) "
-            f"and writes nothing: leave out {', '.join(ignored)}"
-        )
-
-
-def _evaluate_saved(args: argparse.Namespace) -> int:
-    try:
-        q, metadata = load_q_table(args.eval)
-    except QTableError as error:
-        raise UsageError(f"--eval: {error}") from None
-    table_grid = (metadata["grid_rows"], metadata["grid_cols"])
-    asked = (args.rows or table_grid[0], args.cols or table_grid[1])
-    if asked != table_grid:
-        raise UsageError(
-            f"--eval: {args.eval} holds a table for a {table_grid[0]}x{table_grid[1]} grid, "
-            f"not {asked[0]}x{asked[1]}"
-        )
-    if args.layout is not None:
-        raise UsageError("--eval: the layout comes from the table; leave --layout out")
-    kind = args.env or _kind_of(metadata["env_id"])
-    if metadata["layout_name"] is not None:
-        floor = Floor(preset=metadata["layout_name"], max_steps=args.max_steps)
-    elif metadata["layout"] is not None:
-        floor = Floor(layout=tuple(metadata["layout"]), max_steps=args.max_steps)
-    else:
-        floor = Floor(rows=table_grid[0], cols=table_grid[1], max_steps=args.max_steps)
-    robots = metadata.get("robots", 1)
-    if robots > 1:
-        return _evaluate_saved_fleet(args, q, metadata, floor, kind)
-    env = floor.make(kind)
-    env_id = env.spec.id
-    evaluation = evaluate(env, q)
-    env.close()
-    if not args.quiet:
-        print(f"evaluating {_saved_table(args.eval, metadata)} on {env_id}")
-        print(evaluation.table())
-    if args.render:
-        _watch(floor, kind, q, seed=args.seed)
-    return 0
-
-
-def _evaluate_saved_fleet(
-    args: argparse.Namespace, q: Any, metadata: dict[str, Any], floor: Floor, kind: str
-) -> int:
-    """``--eval`` of a fleet's table: its greedy policy and the shortest-path baseline."""
-    if args.render:
-        raise UsageError("--render shows one robot in a window; a fleet's table has no window")
-    robots = metadata["robots"]
-    try:
-        env = floor.make_fleet(kind, robots, observation=metadata.get("observation", "local"))
-    except ValueError as error:
-        raise UsageError(f"--eval: {error}") from None
-    comparison = fleet_comparison(env, q)
-    env.close()
-    if not args.quiet:
-        seeds = len(EVALUATION_SEEDS)
-        print(f"evaluating {_saved_table(args.eval, metadata)} over {seeds} seeds")
-        print(compare_policies(comparison))
-    return 0
-
-
-def _saved_table(path: Path, metadata: dict[str, Any]) -> str:
-    """The table saved at ``path`` in words: the file, then its robots (a fleet's),
-    environment, grid, episodes and seed."""
-    robots = metadata.get("robots", 1)
-    fleet = f"{robots} robots, " if robots > 1 else ""
-    return (
-        f"{path} ({fleet}{metadata['env_id']}, {metadata['grid_rows']}x{metadata['grid_cols']}, "
-        f"{metadata['episodes']} episodes, seed {metadata['seed']})"
-    )
-
-
-def _kind_of(env_id: str) -> str:
-    """ "grid" or "phys": which of the package's environments ``env_id`` is."""
-    spec = gym.registry.get(env_id)
-    if spec is None or not str(spec.entry_point).startswith("warehouse_phys."):
-        raise UsageError(f"--eval: the table was trained on {env_id!r}; choose --env grid or phys")
-    return "phys" if str(spec.entry_point).endswith("WarehousePhysicsEnv") else "grid"
-
-
-def _watch(floor: Floor, kind: str, q: Any, *, seed: int) -> None:
-    """Play one greedy episode in a window until the target, the time limit or a closed window."""
-    env = floor.make(kind, render_mode="human")
-    try:
-        obs, _ = env.reset(seed=seed)
-        terminated = truncated = False
-        while not (terminated or truncated or env.unwrapped.user_closed_window):
-            obs, _, terminated, truncated, _ = env.step(greedy_action(q, obs))
-    finally:
-        env.close()
 
 
 if __name__ == "__main__":

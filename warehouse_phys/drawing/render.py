@@ -9,21 +9,38 @@ is half-way between the centres of cells (0, 1) and (1, 1).
 pygame is imported only when a picture is first drawn: an environment made
 with ``render_mode=None`` (or ``"ansi"``) never loads it.
 
-Its length is the one place the package draws: the pygame renderer, the array-drawn
-maps of large fleets and the text frames.
+The other pictures of a floor live beside it: the array-drawn maps of large fleets
+(:mod:`~warehouse_phys.drawing.map_frames`), the text frames
+(:mod:`~warehouse_phys.drawing.text_frames`), the shared colours
+(:mod:`~warehouse_phys.drawing.colours`) and pygame's import and the display check
+(:mod:`~warehouse_phys.drawing.display`). Their names still import from here.
 """
 
 from __future__ import annotations
 
-import functools
-import os
-import sys
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+# The colours, the display check, the map and the text frames live in modules of their
+# own; re-exported here, where they lived first (see __all__).
+from warehouse_phys.drawing.colours import DELIVERED_FRAME, FLEET_COLOURS, HEADING_POINTER
+from warehouse_phys.drawing.display import NoDisplayError, check_display, import_pygame
+from warehouse_phys.drawing.map_frames import (
+    MAP_DELIVERED,
+    MAP_FLOOR,
+    MAP_FRAME_WIDTH_PX,
+    MAP_PACKAGE,
+    MAP_ROBOT_COLOURS,
+    MAP_SHELF,
+    fleet_map_frame,
+    map_cell_px,
+    stamp_fleet,
+    stamp_headings,
+)
+from warehouse_phys.drawing.text_frames import HEADING_GLYPHS, ansi_frame, fleet_ansi_frame
 
 if TYPE_CHECKING:
     import pygame
@@ -46,12 +63,7 @@ MAX_FRAME_SIDE_PX = 16384
 MAX_FRAME_PIXELS = 2**25
 
 STATUS_BACKGROUND = (38, 42, 48)  # RGB
-DELIVERED_FRAME = (90, 200, 90)  # RGB: around the cell where the package was delivered
 STATUS_TEXT = (235, 235, 235)  # RGB
-#: A turning robot's heading in text frames: east, south, west, north.
-HEADING_GLYPHS = ">v<^"
-#: The pointer that shows a turning robot's heading in pictures.
-HEADING_POINTER = (20, 20, 24)  # RGB
 
 
 def sprite_path(name: str) -> Path:
@@ -72,125 +84,6 @@ def sprite_path(name: str) -> Path:
     )
 
 
-def ansi_frame(
-    rows: int,
-    cols: int,
-    robot: tuple[int, int],
-    target: tuple[int, int],
-    shelves: Collection[tuple[int, int]] = (),
-) -> str:
-    """The console picture: one line per grid row, each cell as a symbol and a space.
-
-    ``R`` robot, ``T`` target, ``#`` shelf, ``_`` floor. The robot is drawn
-    over the target when both share a cell.
-    """
-    lines = []
-    for r in range(rows):
-        cells = []
-        for c in range(cols):
-            if (r, c) == (robot[0], robot[1]):
-                cells.append("R ")
-            elif (r, c) == (target[0], target[1]):
-                cells.append("T ")
-            elif (r, c) in shelves:
-                cells.append("# ")
-            else:
-                cells.append("_ ")
-        lines.append("".join(cells) + "\n")
-    return "".join(lines)
-
-
-def fleet_ansi_frame(
-    rows: int,
-    cols: int,
-    robots: Sequence[Sequence[int]],
-    packages: Sequence[Sequence[int]],
-    shown: Sequence[bool],
-    shelves: Collection[tuple[int, int]] = (),
-    *,
-    headings: Sequence[int] | None = None,
-) -> str:
-    """A fleet's console picture: one line per grid row, cells separated by spaces.
-
-    Robot ``i`` (at ``robots[i]``) is the digit ``i % 10``, its package (at
-    ``packages[i]``) the letter ``"a"`` + ``i % 26``, drawn only where
-    ``shown[i]`` (a robot on the floor); ``#`` shelf, ``_`` floor. Robots are
-    drawn over packages. With ``headings`` (turning robots, 0..3 east, south, west,
-    north) each robot's heading stands right after its digit, in place of the space:
-    :data:`HEADING_GLYPHS` (``>``, ``v``, ``<``, ``^``).
-    """
-    board = [["#" if (r, c) in shelves else "_" for c in range(cols)] for r in range(rows)]
-    after = [[" "] * cols for _ in range(rows)]
-    for i, (row, col) in enumerate(packages):
-        if shown[i]:
-            board[row][col] = chr(ord("a") + i % 26)
-    for i, (row, col) in enumerate(robots):
-        if shown[i]:
-            board[row][col] = str(i % 10)
-            if headings is not None:
-                after[row][col] = HEADING_GLYPHS[headings[i] % 4]
-    if headings is None:
-        return "\n".join(" ".join(line) for line in board)
-    return "\n".join(
-        "".join(a + b for a, b in zip(line, tail, strict=True)).rstrip()
-        for line, tail in zip(board, after, strict=True)
-    )
-
-
-def import_pygame() -> ModuleType:
-    """Import pygame (the ``pygame-ce`` distribution) quietly, or say how to install it."""
-    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-    try:
-        import pygame
-    except ImportError as exc:  # pragma: no cover - pygame-ce is a runtime dependency
-        raise ImportError(
-            "rendering needs pygame; install it with `pip install pygame-ce`"
-        ) from exc
-    return pygame
-
-
-class NoDisplayError(RuntimeError):
-    """There is no display to open a window on; the message says how to get one."""
-
-
-#: SDL's video drivers that draw nowhere a person can see.
-_INVISIBLE_DRIVERS = ("offscreen", "dummy", "evdev")
-_NO_DISPLAY_HELP = (
-    "run it in a desktop session, forward one with `ssh -X`, or start a virtual one "
-    "with `xvfb-run`; rgb_array rendering needs no display"
-)
-
-
-def check_display(pg: ModuleType | None = None) -> None:
-    """Refuse to open a window that nobody could see.
-
-    With no ``DISPLAY`` or ``WAYLAND_DISPLAY`` on Linux and the BSDs, SDL falls
-    back to its off-screen driver and a window would silently go nowhere. Given
-    ``pg`` (pygame with its display initialised), the driver SDL picked is
-    checked too. Setting ``SDL_VIDEODRIVER`` (``dummy`` in tests, say) is taken
-    as the user's choice and always allowed.
-
-    Raises:
-        NoDisplayError: saying there is no display and how to get one.
-    """
-    if os.environ.get("SDL_VIDEODRIVER"):
-        return
-    if sys.platform.startswith(("linux", "freebsd", "openbsd", "netbsd")) and not (
-        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
-    ):
-        raise NoDisplayError(
-            f"cannot open a window: there is no display (DISPLAY and WAYLAND_DISPLAY are "
-            f"unset); {_NO_DISPLAY_HELP}"
-        )
-    if pg is not None and pg.display.get_init():
-        driver = pg.display.get_driver()
-        if driver in _INVISIBLE_DRIVERS:
-            raise NoDisplayError(
-                f"cannot open a window: SDL found no display and chose its {driver!r} "
-                f"driver, which shows nothing; {_NO_DISPLAY_HELP}"
-            )
-
-
 def fit_text(text: pygame.Surface, width: int) -> pygame.Surface:
     """``text`` (a rendered line), shrunk to ``width`` pixels if it is wider: narrow
     windows show the whole line, smaller, rather than clip it."""
@@ -199,23 +92,6 @@ def fit_text(text: pygame.Surface, width: int) -> pygame.Surface:
     pg = import_pygame()
     height = max(1, text.get_height() * width // text.get_width())
     return pg.transform.smoothscale(text, (width, height))
-
-
-#: The colours of a fleet's robots and their packages, robot by robot (RGB).
-#: A fleet's robot colours, robot ``i`` in ``FLEET_COLOURS[i % 8]`` [RGB]: Okabe and Ito's
-#: palette, which colour-blind eyes tell apart (vermillion first: robot 0 is the one a
-#: person drives in ``play``), with a violet for its black, which would pass for a shelf.
-#: None is close to the floor's light tiles or the shelves' dark grey.
-FLEET_COLOURS: tuple[tuple[int, int, int], ...] = (
-    (213, 94, 0),
-    (0, 114, 178),
-    (0, 158, 115),
-    (230, 159, 0),
-    (204, 121, 167),
-    (86, 180, 233),
-    (240, 228, 66),
-    (120, 94, 240),
-)
 
 
 class FrameTooLargeError(ValueError):
@@ -411,9 +287,9 @@ class WarehouseRenderer:
         border = max(2, px // 16)
         if px < FLEET_SPRITE_MIN_PX:
             frame = np.ascontiguousarray(pg.surfarray.pixels3d(surface).transpose(1, 0, 2))
-            _stamp_fleet(frame, px, border, robots, packages, delivered)
+            stamp_fleet(frame, px, border, robots, packages, delivered)
             if headings is not None:
-                _stamp_headings(frame, px, robots, headings)
+                stamp_headings(frame, px, robots, headings)
             return frame
         for i, (row, col) in enumerate(packages):
             colour = FLEET_COLOURS[i % len(FLEET_COLOURS)]
@@ -537,60 +413,9 @@ class WarehouseRenderer:
         return max(4, self.cell_px // 8)  # [px] left and right of the status text
 
 
-#: Robot colours for map frames: :data:`FLEET_COLOURS` as an array [RGB].
-MAP_ROBOT_COLOURS = np.array(FLEET_COLOURS, dtype=np.uint8)
-MAP_FLOOR = (245, 245, 240)  # RGB
-#: Shelves in a light grey, so that the near-black packages stand out from them even
-#: at 1 or 2 pixels a cell; every robot colour stays far from both.
-MAP_SHELF = (185, 185, 195)  # RGB
-MAP_PACKAGE = (25, 25, 25)  # RGB: a dark dot, left visible in a robot standing on it
-MAP_DELIVERED = DELIVERED_FRAME  # RGB: a parked robot that delivered
 #: Cells smaller than this [px] show a fleet's robots as discs drawn with array operations
 #: (:meth:`WarehouseRenderer.fleet_rgb_array`); larger cells show the robot sprite.
 FLEET_SPRITE_MIN_PX = 24
-#: Widest map frame drawn by :func:`fleet_map_frame` when it chooses the cell size [px].
-MAP_FRAME_WIDTH_PX = 1000
-
-
-def _stamp(
-    frame: np.ndarray, tops: np.ndarray, lefts: np.ndarray, mask: np.ndarray, colours: Any
-) -> None:
-    """Paint ``mask`` (a ``(px, px)`` bool array) at each ``(tops[i], lefts[i])`` of
-    ``frame`` in ``colours[i]`` (or one colour for all), with array operations."""
-    ys, xs = np.nonzero(mask)
-    colours = np.asarray(colours, dtype=np.uint8).reshape(-1, 3)
-    frame[tops[:, None] + ys, lefts[:, None] + xs] = colours[:, None, :]
-
-
-def _stamp_fleet(
-    frame: np.ndarray,
-    px: int,
-    border: int,
-    robots: Sequence[Sequence[float]],
-    packages: Sequence[tuple[int, int]],
-    delivered: Sequence[bool] | None,
-) -> None:
-    """A fleet's packages (dark squares framed ``border`` px wide in their robot's colour),
-    robots (discs of their colour; a package's frame shows round a robot standing on it)
-    and green frames round the delivered robots, painted onto ``frame``."""
-    n = len(robots)
-    if n == 0:
-        return
-    colours = MAP_ROBOT_COLOURS[np.arange(n) % len(MAP_ROBOT_COLOURS)]
-    centre = (np.arange(px) + 0.5 - px / 2) ** 2
-    disc = centre[:, None] + centre[None, :] <= (px * 9 / 20) ** 2
-    ring = np.ones((px, px), dtype=bool)
-    ring[border:-border, border:-border] = False
-    inner = np.zeros((px, px), dtype=bool)
-    inner[px // 3 : px - px // 3, px // 3 : px - px // 3] = True
-    cells = np.asarray(packages, dtype=np.int64).reshape(-1, 2) * px
-    _stamp(frame, cells[:, 0], cells[:, 1], inner, MAP_PACKAGE)
-    _stamp(frame, cells[:, 0], cells[:, 1], ring, colours[: len(cells)])
-    corners = np.rint(np.asarray(robots, dtype=np.float64).reshape(-1, 2) * px).astype(np.int64)
-    _stamp(frame, corners[:, 0], corners[:, 1], disc, colours)
-    if delivered is not None:
-        done = np.asarray(delivered, dtype=bool)
-        _stamp(frame, corners[done, 0], corners[done, 1], ring, DELIVERED_FRAME)
 
 
 def _pointer_tip(row: float, col: float, heading: float, length: float) -> tuple[float, float]:
@@ -600,119 +425,35 @@ def _pointer_tip(row: float, col: float, heading: float, length: float) -> tuple
     return row + np.sin(angle) * length, col + np.cos(angle) * length
 
 
-def _stamp_headings(
-    frame: np.ndarray, px: int, robots: Sequence[Sequence[float]], headings: Sequence[float]
-) -> None:
-    """Each robot's heading as a dark square between its centre and its rim (cells of
-    ``px`` pixels, robots at cell positions), painted with array operations."""
-    size = max(1, px // 4)
-    angle = np.asarray(headings, dtype=np.float64) * np.pi / 2
-    at = np.asarray(robots, dtype=np.float64).reshape(-1, 2) + 0.5
-    reach = (px * 9 / 20 - size / 2) / px  # [cells] from the centre
-    middle = (at + reach * np.stack([np.sin(angle), np.cos(angle)], axis=1)) * px
-    corner = np.rint(middle - size / 2).astype(np.int64)
-    limit = np.array(frame.shape[:2]) - size
-    corner = np.clip(corner, 0, limit)
-    _stamp(frame, corner[:, 0], corner[:, 1], np.ones((size, size), dtype=bool), HEADING_POINTER)
-
-
-def map_cell_px(rows: int, cols: int, width_px: int = MAP_FRAME_WIDTH_PX) -> int:
-    """The cell size [px] that fits the longer side of a ``rows`` x ``cols`` floor in
-    ``width_px`` (at least 1, at most 24): 2 px for the 500 x 140 warehouse."""
-    return int(np.clip(width_px // max(rows, cols), 1, 24))
-
-
-@functools.lru_cache(maxsize=4)  # a few floors: a run and its baselines share one
-def _floor_image(rows: int, cols: int, px: int, packed_shelves: bytes) -> np.ndarray:
-    """The floor and its shelves (``packed_shelves``: the shelf mask through
-    ``np.packbits``) at ``px`` pixels a cell, read-only. Cached by content: a large map's
-    tens of thousands of shelves are painted once, not on every frame."""
-    packed = np.frombuffer(packed_shelves, dtype=np.uint8)
-    shelves = np.unpackbits(packed, count=rows * cols).reshape(rows, cols).astype(bool)
-    cells = np.empty((rows, cols, 3), dtype=np.uint8)
-    cells[:] = MAP_FLOOR
-    cells[shelves] = MAP_SHELF
-    image = np.repeat(np.repeat(cells, px, axis=0), px, axis=1)
-    image.flags.writeable = False
-    return image
-
-
-def _shelf_mask(grid: Any) -> np.ndarray:
-    """``grid``'s shelves as a ``(rows, cols)`` boolean array: a
-    :class:`~warehouse_phys.world.grid.WarehouseGrid`'s own ``shelf_mask``, else built
-    from ``grid.shelves`` (any collection of cells)."""
-    mask = getattr(grid, "shelf_mask", None)
-    if mask is not None:
-        return np.asarray(mask, dtype=bool)
-    mask = np.zeros((grid.rows, grid.cols), dtype=bool)
-    cells = np.array(list(grid.shelves), dtype=np.int64).reshape(-1, 2)
-    mask[cells[:, 0], cells[:, 1]] = True
-    return mask
-
-
-def fleet_map_frame(
-    grid: Any,
-    robots: np.ndarray,
-    packages: np.ndarray,
-    *,
-    parked: np.ndarray | None = None,
-    on_floor: np.ndarray | None = None,
-    cell_px: int | None = None,
-    headings: np.ndarray | None = None,
-) -> np.ndarray:
-    """A fleet on a large floor as an ``(H, W, 3)`` uint8 map, drawn with array operations
-    (no pygame, no sprites: one pass however many robots): the floor light, shelves light
-    grey, packages near-black, robot ``i`` a square in ``MAP_ROBOT_COLOURS[i % 8]``.
-
-    A parked robot (it delivered) is framed in green, as the single robot's delivery is,
-    keeping its colour inside, when a cell is 4 px or more; on smaller cells it is a
-    green square. Where a robot stands on its or another's package and the cell is 3 px
-    or more, the package shows as a dark square in the robot's middle. Robots that left
-    the floor are not drawn. ``cell_px`` defaults to :func:`map_cell_px`. With
-    ``headings`` (turning robots, 0..3) each robot's cell shows its heading as a dark
-    mark on the side it faces, on cells of 3 px or more (a 1- or 2-pixel cell has no
-    side to mark).
-
-    The floor and its shelves are drawn once per floor and cell size and copied: a
-    frame costs a copy of the picture and work in proportion to the robots, however
-    many shelves the floor has.
-
-    Raises:
-        ValueError: if ``cell_px`` is below 1.
-    """
-    rows, cols = grid.rows, grid.cols
-    px = map_cell_px(rows, cols) if cell_px is None else int(cell_px)
-    if px < 1:
-        raise ValueError(f"cell_px must be at least 1, got {cell_px}")
-    robots = np.asarray(robots, dtype=np.int64).reshape(-1, 2)
-    packages = np.asarray(packages, dtype=np.int64).reshape(-1, 2)
-    n = len(robots)
-    shown = np.ones(n, dtype=bool) if on_floor is None else np.asarray(on_floor, dtype=bool)
-    done = np.zeros(n, dtype=bool) if parked is None else np.asarray(parked, dtype=bool)
-    waiting = shown & ~done  # robots whose package is still on the floor
-    framed = px >= 4  # a parked robot keeps its colour inside a green frame
-    frame = _floor_image(rows, cols, px, np.packbits(_shelf_mask(grid)).tobytes()).copy()
-    # Cell (r, c) is blocks[r, :, c, :]: one fancy index paints a whole cell per robot.
-    blocks = frame.reshape(rows, px, cols, px, 3)
-    blocks[packages[waiting, 0], :, packages[waiting, 1], :] = MAP_PACKAGE
-    colours = MAP_ROBOT_COLOURS[np.arange(n) % len(MAP_ROBOT_COLOURS)]
-    if not framed:
-        colours[done] = MAP_DELIVERED
-    at = robots[shown]
-    blocks[at[:, 0], :, at[:, 1], :] = colours[shown][:, None, None, :]
-    if framed:  # a green frame round each parked robot's cell
-        r, c = robots[shown & done].T
-        border = max(1, px // 6)
-        for side in (slice(0, border), slice(px - border, px)):
-            blocks[r, side, c, :] = MAP_DELIVERED
-            blocks[r, :, c, side] = MAP_DELIVERED
-    if px >= 3:  # packages under robots: a square in the middle of the robot's cell
-        occupied = np.zeros((rows, cols), dtype=bool)
-        occupied[at[:, 0], at[:, 1]] = True
-        under = packages[waiting][occupied[packages[waiting, 0], packages[waiting, 1]]]
-        middle = slice(px // 3, px - px // 3)
-        blocks[under[:, 0], middle, under[:, 1], middle] = MAP_PACKAGE
-    if headings is not None and px >= 3:
-        on = at.astype(np.float64)
-        _stamp_headings(frame, px, on, np.asarray(headings, dtype=np.float64)[shown])
-    return frame
+__all__ = [
+    "DEFAULT_CELL_PX",
+    "DELIVERED_FRAME",
+    "FLEET_COLOURS",
+    "FLEET_SPRITE_MIN_PX",
+    "HEADING_GLYPHS",
+    "HEADING_POINTER",
+    "MAP_DELIVERED",
+    "MAP_FLOOR",
+    "MAP_FRAME_WIDTH_PX",
+    "MAP_PACKAGE",
+    "MAP_ROBOT_COLOURS",
+    "MAP_SHELF",
+    "MAX_FRAME_PIXELS",
+    "MAX_FRAME_SIDE_PX",
+    "MIN_CELL_PX",
+    "SPRITE_DIRS",
+    "SPRITE_NAMES",
+    "STATUS_BACKGROUND",
+    "STATUS_TEXT",
+    "FrameTooLargeError",
+    "NoDisplayError",
+    "WarehouseRenderer",
+    "ansi_frame",
+    "check_display",
+    "fit_text",
+    "fleet_ansi_frame",
+    "fleet_map_frame",
+    "import_pygame",
+    "map_cell_px",
+    "sprite_path",
+]

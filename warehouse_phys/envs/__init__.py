@@ -16,8 +16,6 @@ from warehouse_phys.envs.base import (
     OBSERVATION_KINDS,
     RenderModes,
     WarehouseEnvBase,
-    checked_choice,
-    checked_penalty,
     checked_record_path,
     draw_offscreen_without_display,
     observation_space,
@@ -25,6 +23,7 @@ from warehouse_phys.envs.base import (
     recording_world,
     status_line,
 )
+from warehouse_phys.envs.checks import checked_choice, checked_penalty
 from warehouse_phys.envs.single import (
     WarehouseGridEnv,
     WarehousePhysicsEnv,

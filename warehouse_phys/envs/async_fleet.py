@@ -21,9 +21,9 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-from warehouse_phys.drawing.render import fleet_ansi_frame
+from warehouse_phys.drawing.text_frames import fleet_ansi_frame
 from warehouse_phys.execution.delays import DelayConfig
-from warehouse_phys.execution.executor import DEFAULT_MIN_GAP
+from warehouse_phys.execution.following import DEFAULT_MIN_GAP
 from warehouse_phys.execution.runner import Execution, TickOutcome
 from warehouse_phys.execution.ticks import (
     LORR_TICKS_PER_MOVE,
@@ -35,11 +35,8 @@ from warehouse_phys.lorr.errands import NO_ERRAND, ErrandList, errand_list
 from warehouse_phys.lorr.instances import LorrInstance, as_instance
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
 from warehouse_phys.physics.config import PhysicsConfig, physics_config_from
-from warehouse_phys.physics.ticking import (
-    default_tick_steps,
-    required_min_gap,
-    tick_fractions,
-)
+from warehouse_phys.physics.tick_controller import required_min_gap
+from warehouse_phys.physics.ticking import default_tick_steps, tick_fractions
 from warehouse_phys.world.headings import HEADINGS, MOVE_MODELS, Heading
 from warehouse_phys.world.layouts import make_grid
 from warehouse_phys.world.placement import (

@@ -1,14 +1,13 @@
 """What every single warehouse environment shares (:class:`WarehouseEnvBase`), and the
-checks and encodings the vector and fleet environments use too: actions, penalties,
-choices, observation spaces and one-hot rows, status lines, recorded paths.
+encodings the vector and fleet environments use too: observation spaces and one-hot
+rows, status lines, recorded paths.
 
-Its length is the checks every environment shares (actions, options, penalties,
-render modes), each refusing a bad input with an error that names it.
+The checks the environments share (actions, penalties, choices) live in
+:mod:`warehouse_phys.envs.checks`; their names still import from here.
 """
 
 from __future__ import annotations
 
-import math
 import os
 import warnings
 from collections.abc import Mapping, Sequence
@@ -20,28 +19,40 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from warehouse_phys.drawing.render import (
-    DEFAULT_CELL_PX,
-    NoDisplayError,
-    WarehouseRenderer,
-    ansi_frame,
-    check_display,
+from warehouse_phys.drawing.display import NoDisplayError, check_display
+from warehouse_phys.drawing.render import DEFAULT_CELL_PX, WarehouseRenderer
+from warehouse_phys.drawing.text_frames import ansi_frame
+from warehouse_phys.envs.checks import (
+    INTEGER_TYPES,
+    checked_action,
+    checked_choice,
+    checked_penalties,
+    checked_penalty,
+    is_integer,
+    is_integer_scalar,
+    number_text,
 )
 from warehouse_phys.physics import PhysicsConfig
 from warehouse_phys.world.grid import Action, Cell, refuse_durations, step_reward
 from warehouse_phys.world.layouts import make_grid
 
-#: The actions in value order, so that ``_ACTIONS[i]`` is ``Action(i)`` without an enum lookup.
-_ACTIONS: tuple[Action, ...] = tuple(Action)
-
-
-_ACTION_RANGE = ", ".join(f"{a.name}={a.value}" for a in Action)
-
-#: The exact types of plain integer scalars, which ``np.fromiter(..., np.int64)`` converts
-#: one by one (never through float) and refuses with ``OverflowError`` beyond int64.
-INTEGER_TYPES = frozenset({int, np.int64, np.int32, np.int16, np.int8, np.uint8,
-                           np.uint16, np.uint32, np.uint64})  # fmt: skip
-
+__all__ = [
+    "INTEGER_TYPES",
+    "OBSERVATION_KINDS",
+    "RenderModes",
+    "WarehouseEnvBase",
+    "checked_choice",
+    "checked_penalties",
+    "checked_penalty",
+    "checked_record_path",
+    "draw_offscreen_without_display",
+    "is_integer_scalar",
+    "number_text",
+    "observation_space",
+    "onehot",
+    "recording_world",
+    "status_line",
+]
 
 _RESET_OPTIONS = ("start", "target")
 
@@ -146,7 +157,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         """
         if self._robot is None:
             raise ResetNeeded("call reset() before step()")
-        move = _checked_action(action)
+        move = checked_action(action)
         before = self._robot
         self._robot = self._move_robot(move)
         self._last_action = move
@@ -307,7 +318,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
             raise ValueError(
                 f"options[{name!r}] must be a (row, col) pair, got {value!r}"
             ) from None
-        if not all(_is_integer(v) for v in (row, col)):
+        if not all(is_integer(v) for v in (row, col)):
             raise ValueError(f"options[{name!r}] must hold two integers, got {value!r}")
         cell = Cell(int(row), int(col))
         if not self.grid.contains(cell):
@@ -354,70 +365,6 @@ def recording_world(world: Any, record_path: bool, name: str) -> Any:
     return world
 
 
-def checked_penalty(name: str, value: object) -> float:
-    """``value`` as a float, if it is a finite real number >= 0, else an error naming ``name``.
-
-    Raises:
-        TypeError: if ``value`` is not a real number (a bool, a string, ``None``, ...).
-        ValueError: if it is negative, infinite, NaN or an integer too large for a float.
-    """
-    if isinstance(value, (bool, np.bool_, np.timedelta64)) or not isinstance(
-        value, (int, float, np.integer, np.floating)
-    ):
-        raise TypeError(
-            f"{name} must be a real number >= 0, got {value!r} ({type(value).__name__})"
-        )
-    try:
-        number = float(value)
-    except OverflowError:  # a Python int beyond 1.8e308
-        number = math.nan
-    if not math.isfinite(number) or number < 0:
-        raise ValueError(f"{name} must be a finite number >= 0, got {number_text(value)}")
-    return number
-
-
-def checked_penalties(step_penalty: object, bump_penalty: object) -> tuple[float, float]:
-    """``step_penalty`` and ``bump_penalty``, each through :func:`checked_penalty`, as floats.
-
-    Raises:
-        TypeError, ValueError: as :func:`checked_penalty`, naming the penalty; and
-            ``ValueError`` if their sum, what a refused step costs, is infinite.
-    """
-    step = checked_penalty("step_penalty", step_penalty)
-    bump = checked_penalty("bump_penalty", bump_penalty)
-    if not math.isfinite(step + bump):  # two finite halves of an infinite reward
-        raise ValueError(
-            f"step_penalty + bump_penalty must be finite (a bump costs both), "
-            f"got {step!r} + {bump!r}"
-        )
-    return step, bump
-
-
-def number_text(value: object) -> str:
-    """``value`` for an error message: ``repr``, but an integer beyond 64 bits by its size.
-
-    Python refuses to write an int of more than 4300 digits (``str`` raises), and
-    one of 400 digits tells a reader less than its size does.
-    """
-    if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.timedelta64)):
-        bits = int(value).bit_length()
-        if bits > 64:
-            return f"{'a negative' if value < 0 else 'an'} integer of {bits} bits"
-    return repr(value)
-
-
-def checked_choice(name: str, value: object, choices: Sequence[str]) -> str:
-    """``value`` if it is one of ``choices``, else a ``ValueError`` (``TypeError`` for a
-    non-string) naming ``name`` and the choices."""
-    if not isinstance(value, str):
-        raise TypeError(
-            f"{name} must be one of {list(choices)}, got {value!r} ({type(value).__name__})"
-        )
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
-    return value
-
-
 def observation_space(observation: str, rows: int, cols: int) -> spaces.Space:
     """The single observation space of ``observation`` (see :data:`OBSERVATION_KINDS`):
     ``MultiDiscrete([R, C, R, C])``, or ``Box(0, 1, (R + C + R + C,), float32)``."""
@@ -437,43 +384,6 @@ def onehot(cells: np.ndarray, rows: int, cols: int) -> np.ndarray:
     offsets = np.array([0, rows, rows + cols, 2 * rows + cols], dtype=np.int64)
     out[np.arange(len(cells))[:, None], cells + offsets] = 1.0
     return out
-
-
-def _checked_action(action: object) -> Action:
-    """The :class:`Action` for ``action``, or a ``TypeError``/``ValueError`` naming it."""
-    kind = type(action)
-    if (kind is int or kind is np.int64) and 0 <= action < len(_ACTIONS):  # the usual cases
-        return _ACTIONS[action]
-    if np.ma.is_masked(action):  # np.ma.masked, or a masked array with its value masked
-        raise ValueError(
-            f"invalid action: a masked value ({type(action).__name__}) is no action; "
-            f"expected an integer in 0..3 ({_ACTION_RANGE})"
-        )
-    if not is_integer_scalar(action):
-        raise TypeError(
-            f"invalid action {action!r} of type {type(action).__name__}: "
-            f"expected an integer in 0..3 ({_ACTION_RANGE})"
-        )
-    value = int(action)
-    if not 0 <= value < len(_ACTIONS):
-        shown = number_text(action)
-        shown = f"({shown})" if " " in shown else shown  # "an integer of N bits", bracketed
-        raise ValueError(f"invalid action {shown}: expected an integer in 0..3 ({_ACTION_RANGE})")
-    return _ACTIONS[value]
-
-
-def is_integer_scalar(value: object) -> bool:
-    """Whether ``value`` is one integer: a Python or numpy integer or a 0-d integer array
-    (in either byte order), but neither a bool nor a duration."""
-    return _is_integer(value) or (
-        isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind in "iu"
-    )
-
-
-def _is_integer(value: object) -> bool:
-    """Whether ``value`` is a Python or numpy integer, but neither a bool nor a duration
-    (numpy counts ``timedelta64`` as an integer)."""
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.timedelta64))
 
 
 def draw_offscreen_without_display() -> None:

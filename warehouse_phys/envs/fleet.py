@@ -4,8 +4,10 @@
 (a PettingZoo ``ParallelEnv``); ``warehouse_phys.envs.fleet.env(**kwargs)`` the same as
 an AEC environment (PettingZoo's ``parallel_to_aec``, refusing a bad action at once).
 
-Its length is one PettingZoo environment whose class docstring, its specification,
-is a fifth of it; the rules it applies live in :mod:`warehouse_phys.world`.
+Here are its specification (the class docstring) and its step and reset glue; what it
+composes has a module each (``fleet_setup``, ``fleet_state``, ``fleet_actions``,
+``fleet_observations``, ``fleet_physics``), and the rules it applies live in
+:mod:`warehouse_phys.world`.
 """
 
 from __future__ import annotations
@@ -18,11 +20,10 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import AECEnv, ParallelEnv
-from pettingzoo.utils.conversions import parallel_to_aec_wrapper
-from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-from warehouse_phys.drawing.render import DEFAULT_CELL_PX, WarehouseRenderer, fleet_ansi_frame
-from warehouse_phys.envs.fleet_actions import FleetActions, number_text
+from warehouse_phys.drawing.render import DEFAULT_CELL_PX, WarehouseRenderer
+from warehouse_phys.drawing.text_frames import fleet_ansi_frame
+from warehouse_phys.envs.fleet_actions import FleetActions, aec_form
 from warehouse_phys.envs.fleet_observations import (
     MAX_GLOBAL_OBSERVATION_ROBOTS,
     NEIGHBOUR_BITS,
@@ -30,26 +31,22 @@ from warehouse_phys.envs.fleet_observations import (
     FleetObservations,
     robot_infos,
 )
-from warehouse_phys.lorr.errands import ErrandList, errand_list
-from warehouse_phys.lorr.instances import LorrInstance, as_instance
-from warehouse_phys.lorr.scheduling import Scheduler
-from warehouse_phys.physics import PhysicsConfig, check_controller, physics_config_from
-from warehouse_phys.physics.batched import BatchedPhysicsWorld
-from warehouse_phys.planners.distances import DistanceMaps
-from warehouse_phys.world.batched import step_rewards
-from warehouse_phys.world.grid import refuse_durations
-from warehouse_phys.world.headings import MOVE_MODELS, TURN_ACTIONS, Heading, joint_grants
-from warehouse_phys.world.layouts import make_grid, suggested_time_limit
-from warehouse_phys.world.placement import (
-    START_MODES,
-    check_room,
-    draw_new_packages,
-    draw_placement,
-    layout_starts,
-    package_cells,
-    reachable_cells,
+from warehouse_phys.envs.fleet_physics import drive_bodies, motion_frames, started_world
+from warehouse_phys.envs.fleet_setup import (
+    DELIVERY_MODES,
+    LORR_STEPS,
+    MAX_PHYSICS_ROBOTS,
+    set_up_fleet,
 )
-from warehouse_phys.world.traffic import FLEET_ACTIONS, check_clearance, corner_follows_are_safe
+from warehouse_phys.envs.fleet_state import FleetState
+from warehouse_phys.lorr.instances import LorrInstance
+from warehouse_phys.lorr.scheduling import Scheduler
+from warehouse_phys.physics import PhysicsConfig
+from warehouse_phys.physics.batched import BatchedPhysicsWorld
+from warehouse_phys.world.batched import step_rewards
+from warehouse_phys.world.headings import TURN_ACTIONS, joint_grants
+from warehouse_phys.world.placement import START_MODES
+from warehouse_phys.world.traffic import FLEET_ACTIONS
 
 __all__ = [
     "DELIVERY_MODES",
@@ -64,15 +61,8 @@ __all__ = [
     "parallel_env",
 ]
 
-DELIVERY_MODES = ("park", "leave", "new_package")
-#: Most robots in the physics world (one pymunk space; a step of 1,024 random moves
-#: takes a few milliseconds of chipmunk and of the closest-approach diagnostic).
-MAX_PHYSICS_ROBOTS = 1024
-#: An instance fleet's ``max_cycles`` by default: the competition's 5,000 steps.
-LORR_STEPS = 5000
 
-
-class WarehouseFleetEnv(ParallelEnv):
+class WarehouseFleetEnv(FleetState, ParallelEnv):
     """Robots on one warehouse floor, each delivering its own packages or a task list's errands.
 
     ## Description
@@ -255,110 +245,27 @@ class WarehouseFleetEnv(ParallelEnv):
         record_errands: bool = False,
         **physical: float,
     ) -> None:
-        flags = (("physics", physics), ("lifelong", lifelong), ("track_gaps", track_gaps),
-                 ("record_errands", record_errands))  # fmt: skip
-        for name, flag in flags:
-            if not isinstance(flag, bool):
-                raise TypeError(f"{name} must be a bool, got {flag!r}")
-        for name, value, choices in (
-            ("observation", observation, OBSERVATIONS),
-            ("on_delivery", "park" if on_delivery is None else on_delivery, DELIVERY_MODES),
-            ("starts", starts, START_MODES),
-            ("moves", moves, MOVE_MODELS),
-        ):
-            if not isinstance(value, str) or value not in choices:
-                raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
-        floor = {"grid_rows": grid_rows, "grid_cols": grid_cols, "layout": layout}
-        self.instance = _instance_of(instance, floor, starts, scheduler)
-        if self.instance is not None:
-            if on_delivery not in (None, "new_package"):
-                raise ValueError(
-                    f"an instance fleet is lifelong (its robots take the task list's errands); "
-                    f"got on_delivery={on_delivery!r}"
-                )
-            lifelong = True
-            num_robots = self.instance.team_size if num_robots is None else num_robots
-        num_robots = 2 if num_robots is None else num_robots
-        refuse_durations(num_robots=num_robots, max_cycles=max_cycles)
-        if isinstance(num_robots, bool) or not isinstance(num_robots, (int, np.integer)):
-            raise TypeError(f"num_robots must be an integer, got {num_robots!r}")
-        if num_robots < 1:
-            raise ValueError(f"num_robots must be at least 1, got {number_text(num_robots)}")
-        if self.instance is not None and num_robots != self.instance.team_size:
-            raise ValueError(
-                f"num_robots={num_robots} but the instance {self.instance.name} has teamSize "
-                f"{self.instance.team_size}; leave num_robots out"
-            )
-        if lifelong and on_delivery not in (None, "new_package"):
-            raise ValueError(
-                f"lifelong=True means on_delivery='new_package'; got on_delivery={on_delivery!r}"
-            )
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, "
-                f"got {render_mode!r}"
-            )
-        if physics and num_robots > MAX_PHYSICS_ROBOTS:
-            raise ValueError(
-                f"the physics world takes at most {MAX_PHYSICS_ROBOTS} robots, got {num_robots}"
-            )
-        if physics and on_delivery == "leave":
-            raise ValueError(
-                "on_delivery='leave' is for the grid twin: in the physics world a robot's "
-                "body cannot leave the floor yet; use 'park' or 'new_package'"
-            )
-        if observation == "global" and num_robots > MAX_GLOBAL_OBSERVATION_ROBOTS:
-            raise ValueError(
-                f"observation='global' takes at most {MAX_GLOBAL_OBSERVATION_ROBOTS} robots "
-                f"(each robot's copy holds 4 numbers per robot: {num_robots:,} robots would need "
-                f"{32 * int(num_robots) ** 2 / 2**20:,.0f} MiB a step); use 'local' or "
-                "'neighbours'"
-            )
-        self.grid = (
-            make_grid(grid_rows, grid_cols, layout) if self.instance is None else self.instance.grid
-        )
-        self.num_robots = int(num_robots)
-        self._track_gaps = track_gaps
-        self.on_delivery = "new_package" if lifelong else on_delivery or "park"
-        self.observation = observation
-        self.render_mode = render_mode
+        setup = set_up_fleet(
+            num_robots=num_robots, physics=physics, grid_rows=grid_rows, grid_cols=grid_cols,
+            layout=layout, lifelong=lifelong, max_cycles=max_cycles, observation=observation,
+            render_mode=render_mode, render_modes=self.metadata["render_modes"],
+            on_delivery=on_delivery, starts=starts, track_gaps=track_gaps, moves=moves,
+            instance=instance, scheduler=scheduler, record_errands=record_errands,
+            physical=physical,
+        )  # fmt: skip
+        self.instance, self.grid, self.num_robots = setup.instance, setup.grid, setup.num_robots
+        self.on_delivery, self.max_cycles = setup.on_delivery, setup.max_cycles
+        self.observation, self.render_mode, self._track_gaps = observation, render_mode, track_gaps
         #: The move model: ``"grid"`` (four directions) or ``"rotate"`` (turning robots).
         self.moves = moves
-        if max_cycles is None:
-            max_cycles = (
-                LORR_STEPS if self.instance is not None else suggested_time_limit(self.grid)
-            )
-        if isinstance(max_cycles, bool) or not isinstance(max_cycles, (int, np.integer)):
-            raise TypeError(f"max_cycles must be an integer, got {max_cycles!r}")
-        if max_cycles < 1:
-            raise ValueError(f"max_cycles must be at least 1, got {number_text(max_cycles)}")
-        self.max_cycles = int(max_cycles)
-        # The physical parameters are checked in both twins: the robots' size decides
-        # whether the rule grants corner follows.
-        config = physics_config_from(physical)
-        if physics:  # the controller keeps one robot's promises, and the fleet's robots apart
-            check_clearance(config.robot_diameter, *check_controller(config, turning=self.turning))
         #: The physics world's parameters, as in every environment; ``None`` in the grid twin.
-        self.physics: PhysicsConfig | None = config if physics else None
+        self.physics: PhysicsConfig | None = setup.physics
         #: Whether the traffic rule grants corner follows (robots small enough to pass).
-        self.corner_follows = corner_follows_are_safe(config.robot_diameter)
-        self._errands: ErrandList | None = None
-        if self.instance is not None:
-            starts = "layout"
-            self._errands = errand_list(self.instance, scheduler=scheduler, record=record_errands)
-        elif starts == "auto":
-            starts = "layout" if getattr(self.grid, "starts_marked", True) else "random"
-        self.starts_mode = starts
-        self._targets = package_cells(self.grid)
-        self._reachable = reachable_cells(self.grid)
-        self._layout_starts_index = None
-        if self.instance is not None:
-            self._layout_starts_index = self.instance.starts
-        elif starts == "layout":
-            self._layout_starts_index = layout_starts(self.grid, self.num_robots, self._reachable)
-        if self.instance is None:
-            check_room(self.num_robots, starts, self.lifelong, self._targets, self._reachable,
-                       self._layout_starts_index)  # fmt: skip
+        self.corner_follows = setup.corner_follows
+        placement = setup.placement
+        self.starts_mode, self._errands = placement.starts_mode, placement.errands
+        self._targets, self._reachable = placement.targets, placement.reachable
+        self._layout_starts_index = placement.layout_starts
 
         self.possible_agents = [f"robot_{i}" for i in range(self.num_robots)]
         self.agents: list[str] = []
@@ -371,125 +278,13 @@ class WarehouseFleetEnv(ParallelEnv):
         self._action_space = spaces.Discrete(count)
 
         self.np_random, _ = seeding.np_random(None)
-        self._cells = np.zeros((n, 2), dtype=np.int64)  # and _here, as indices
-        self._packages = np.zeros((n, 2), dtype=np.int64)  # and _package_index
-        self._headings = np.zeros(n, dtype=np.int64) if self.turning else None
-        self._every_robot = _read_only(np.arange(n))
-        self._parked = np.zeros(n, dtype=bool)
-        self._on_floor = np.ones(n, dtype=bool)
-        self._deliveries = np.zeros(n, dtype=np.int64)
-        self._steps = 0
-        self._distances: DistanceMaps | None = None
+        self._init_state()
         self.world: BatchedPhysicsWorld | None = None
         self._renderer = WarehouseRenderer.for_grid(
             self.grid, cell_px=cell_px, render_fps=self.metadata["render_fps"]
         )
         if render_mode == "rgb_array":
             self._renderer.check_frame_size()
-
-    # ------------------------------------------------------------ the state
-    @property
-    def _cells(self) -> np.ndarray:
-        """Each robot's ``(row, col)``, kept with its index ``row * cols + col`` (``_here``)."""
-        return self._cell_rows_cols
-
-    @_cells.setter
-    def _cells(self, cells: np.ndarray) -> None:
-        self._cell_rows_cols = cells
-        self._here = cells[:, 0] * self.grid.cols + cells[:, 1]
-
-    @property
-    def _packages(self) -> np.ndarray:
-        """Each robot's package ``(row, col)``, kept with its index (``_package_index``);
-        changed in place by :meth:`_draw_new_packages`, which updates both."""
-        return self._package_rows_cols
-
-    @_packages.setter
-    def _packages(self, packages: np.ndarray) -> None:
-        self._package_rows_cols = packages
-        self._package_index = packages[:, 0] * self.grid.cols + packages[:, 1]
-
-    # ------------------------------------------------------------ the public state
-    @property
-    def track_gaps(self) -> bool:
-        """Whether a physics step measures ``min_gap`` (reading every body after each
-        physics step; frames of the motion need the same reads). Fixed when built."""
-        return self._track_gaps
-
-    @property
-    def lifelong(self) -> bool:
-        """Whether a robot gets a new package on delivery (``on_delivery="new_package"``)."""
-        return self.on_delivery == "new_package"
-
-    @property
-    def turning(self) -> bool:
-        """Whether the robots turn and drive forward (``moves="rotate"``)."""
-        return self.moves == "rotate"
-
-    @property
-    def starts(self) -> list[tuple[int, int]]:
-        """The start cells of ``starts="layout"`` (the robots' cells at every reset)."""
-        if self._layout_starts_index is None:
-            return []
-        return [divmod(int(cell), self.grid.cols) for cell in self._layout_starts_index]
-
-    @property
-    def robot_cells(self) -> np.ndarray:
-        """Each robot's ``(row, col)``, ``(N, 2)`` int64, read-only (a robot that left the
-        floor keeps the cell it left from)."""
-        return _read_only(self._cells)
-
-    @property
-    def robot_headings(self) -> np.ndarray | None:
-        """Each turning robot's heading (:class:`~warehouse_phys.world.headings.Heading`),
-        ``(N,)`` int64, read-only; ``None`` for robots that do not turn."""
-        return None if self._headings is None else _read_only(self._headings)
-
-    @property
-    def package_cells(self) -> np.ndarray:
-        """Each robot's package ``(row, col)``, ``(N, 2)`` int64, read-only (an instance
-        fleet: its next errand; its own cell for a robot without one)."""
-        return _read_only(self._packages)
-
-    @property
-    def errands(self) -> ErrandList | None:
-        """An instance fleet's errand list (errands and tasks finished, events);
-        ``None`` for a fleet that draws its packages."""
-        return self._errands
-
-    @property
-    def parked(self) -> np.ndarray:
-        """Which robots are parked on their delivered package (``on_delivery="park"``)."""
-        return _read_only(self._parked)
-
-    @property
-    def on_floor(self) -> np.ndarray:
-        """Which robots are on the floor (all but those that left, ``on_delivery="leave"``)."""
-        return _read_only(self._on_floor)
-
-    @property
-    def deliveries(self) -> np.ndarray:
-        """Packages each robot delivered (an instance fleet: errands it finished) this
-        episode, ``(N,)`` int64, read-only."""
-        return _read_only(self._deliveries)
-
-    @property
-    def steps(self) -> int:
-        """Joint steps taken this episode."""
-        return self._steps
-
-    @property
-    def distances(self) -> DistanceMaps:
-        """Shortest-path distances on this floor to the packages (shared with planners)."""
-        if self._distances is None:
-            self._distances = DistanceMaps(self.grid)
-        return self._distances
-
-    @distances.setter
-    def distances(self, maps: DistanceMaps) -> None:
-        if not isinstance(maps, DistanceMaps) or maps.grid is not self.grid:
-            raise ValueError("distances must be a DistanceMaps of this fleet's grid")
-        self._distances = maps
 
     def observation_space(self, agent: str) -> spaces.MultiDiscrete | spaces.Box:
         """The observation space of ``agent`` (the same object on every call)."""
@@ -512,31 +307,14 @@ class WarehouseFleetEnv(ParallelEnv):
         """
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
-        n, cols = self.num_robots, self.grid.cols
-        if self._errands is not None:
-            here = self._layout_starts_index
-            self._errands.reset(here)
-            packages = np.where(self._errands.goals >= 0, self._errands.goals, here)
-        else:
-            here, packages = draw_placement(self.np_random, n, self._targets, self._reachable,
-                                            self._layout_starts_index)  # fmt: skip
-        self._cells = np.stack(np.divmod(here, cols), axis=1)
-        self._packages = np.stack(np.divmod(packages, cols), axis=1)
-        if self._headings is not None:
-            self._headings[:] = Heading.EAST
+        n = self.num_robots
+        self._place_robots()
         self.agents = list(self.possible_agents)
-        self._parked[:] = False
-        self._on_floor[:] = True
-        self._deliveries[:] = 0
-        self._steps = 0
-        if self.physics and self.world is None:
-            self.world = BatchedPhysicsWorld(
-                self.grid, self.physics, self._cells, np.zeros(n, dtype=np.int64),
+        if self.physics:
+            self.world = started_world(
+                self.world, self.grid, self.physics, self._cells, self._headings,
                 record_path=self.track_gaps or self.render_mode == "rgb_array",
-                headings=self._headings,
             )  # fmt: skip
-        elif self.physics:  # every robot as newly built, in the same world
-            self.world.restart(np.arange(n), self._cells, self._headings)
         live = np.arange(n)
         refused = np.zeros(n, dtype=bool)
         return self._observations(live), self._infos(live, refused, None, None)
@@ -557,41 +335,18 @@ class WarehouseFleetEnv(ParallelEnv):
         ends = np.empty((self.num_robots, 2), dtype=np.int64)
         np.divmod(moved, cols, out=(ends[:, 0], ends[:, 1]))
         snap_errors = gaps = None
+        if self.physics:  # the granted moves and the bumps driven, the rest held
+            ends, headings, snap_errors, gaps = drive_bodies(
+                self.world, joint, ends, bumped, headings, turning=self.turning,
+                track_gaps=self.track_gaps,
+            )  # fmt: skip
+            # The cells (and headings) read from the bodies: the same, as the tests prove.
+            moved = ends[:, 0] * cols + ends[:, 1]
         if headings is not None:
             self._headings = headings
-        if self.physics:  # the granted moves and the bumps driven, the rest held
-            if self.turning:  # the headings read from the bodies too
-                body_cells, self._headings, snap_errors = self.world.move_turning(
-                    ends, headings, bumped
-                )
-            else:
-                body_cells, snap_errors = self.world.move_granted(joint, ends, bumped)
-            ends = np.asarray(body_cells, dtype=np.int64).reshape(-1, 2)
-            gaps = self.world.closest_gaps() if self.track_gaps else None
-        self._cell_rows_cols = ends  # the cells, their indices set below
+        self._cell_rows_cols, self._here = ends, moved  # the cells and their indices
         self._steps += 1
-
-        if self.physics:  # the cells read from the bodies (the same, as the tests prove)
-            moved = ends[:, 0] * cols + ends[:, 1]
-        self._here = moved
-        arrived = moved == self._package_index
-        if self._errands is not None:
-            arrived &= self._errands.goals >= 0
-        elif len(live) < self.num_robots:  # the parked and the gone deliver no more
-            arrived &= np.isin(self._every_robot, live)
-        delivered = arrived.nonzero()[0]
-        if self._errands is not None:
-            self._deliveries[delivered] += 1
-            self._errands.step(delivered, moved)
-            goals = self._errands.goals
-            self._packages = np.stack(np.divmod(np.where(goals >= 0, goals, moved), cols), axis=1)
-        elif delivered.size:
-            self._deliveries[delivered] += 1
-            if self.on_delivery == "new_package":
-                self._draw_new_packages(delivered)
-            else:
-                self._parked[delivered] = self.on_delivery == "park"
-                self._on_floor[delivered] = self.on_delivery == "park"
+        arrived, delivered = self._deliver(moved, live)
         agents = self.agents
         arrived_live = arrived if len(live) == self.num_robots else arrived[live]
         rewards = dict(zip(agents, step_rewards(arrived_live).tolist(), strict=True))
@@ -642,23 +397,8 @@ class WarehouseFleetEnv(ParallelEnv):
         Raises:
             ValueError: in the grid twin, which has no motion between cells.
         """
-        if self.world is None:
-            raise ValueError("only the physics world (physics=True) has motion frames")
-        if not self.world.record_path:
-            raise ValueError(
-                "this fleet does not record the motion: make it with render_mode='rgb_array' "
-                "or track_gaps=True"
-            )
-        paths = self.world.last_paths  # (K, steps, 2)
-        turns = self.world.last_orientations if self.turning else None  # (K, steps)
-        packages = self._package_list()
-        return [
-            self._renderer.fleet_rgb_array(
-                paths[:, step].tolist(), packages,
-                headings=None if turns is None else turns[:, step].tolist(),
-            )
-            for step in range(paths.shape[1])
-        ]  # fmt: skip
+        return motion_frames(self.world, self._renderer, self._package_list(),
+                             turning=self.turning)  # fmt: skip
 
     def close(self) -> None:
         """Release the renderer's pygame resources."""
@@ -670,16 +410,6 @@ class WarehouseFleetEnv(ParallelEnv):
         return self._observer.state(self._cells, self._packages, self._headings)
 
     # ------------------------------------------------------------------ helpers
-    def _draw_new_packages(self, robots: np.ndarray) -> None:
-        """New packages for ``robots``, as
-        :func:`~warehouse_phys.world.placement.draw_new_packages` draws them."""
-        if not robots.size:
-            return
-        cells = draw_new_packages(self.np_random, self._targets, self.grid.rows * self.grid.cols,
-                                  self._here, self._package_index, robots)  # fmt: skip
-        self._packages[robots, 0], self._packages[robots, 1] = np.divmod(cells, self.grid.cols)
-        self._package_index[robots] = cells
-
     def _live_indices(self) -> np.ndarray:
         if len(self.agents) == self.num_robots:
             return self._every_robot
@@ -725,42 +455,6 @@ class WarehouseFleetEnv(ParallelEnv):
         return [tuple(p) for p in self._packages.tolist()]
 
 
-def _instance_of(
-    instance: LorrInstance | str | os.PathLike[str] | None,
-    floor: dict[str, object],
-    starts: str,
-    scheduler: Scheduler | None,
-) -> LorrInstance | None:
-    """``instance`` as a :class:`LorrInstance` (read from its path), with the fleet's
-    floor arguments (``floor``: those given) refused beside it."""
-    if instance is None:
-        if scheduler is not None:
-            raise ValueError("scheduler is for a fleet of an instance (instance=...)")
-        return None
-    given = [name for name, value in floor.items() if value is not None]
-    if given or starts != "auto":
-        names = ", ".join(given + ([] if starts == "auto" else ["starts"]))
-        raise ValueError(f"an instance gives the floor and the starts; do not give {names}")
-    return as_instance(instance)
-
-
-def _read_only(array: np.ndarray) -> np.ndarray:
-    view = array.view()
-    view.flags.writeable = False
-    return view
-
-
-class _FleetAEC(parallel_to_aec_wrapper):
-    """PettingZoo's AEC form of the fleet, refusing a bad action when it is given (the
-    joint step happens at the last robot's turn, too late to refuse it cleanly)."""
-
-    def step(self, action: int | None) -> None:
-        agent = self.agent_selection
-        if not (self.terminations[agent] or self.truncations[agent]):
-            action = self.env._actions.one(agent, action)
-        super().step(action)
-
-
 def parallel_env(**kwargs: Any) -> WarehouseFleetEnv:
     """The fleet as a PettingZoo ``ParallelEnv`` (see :class:`WarehouseFleetEnv`)."""
     return WarehouseFleetEnv(**kwargs)
@@ -768,4 +462,4 @@ def parallel_env(**kwargs: Any) -> WarehouseFleetEnv:
 
 def env(**kwargs: Any) -> AECEnv:
     """The fleet as a PettingZoo AEC environment: robots act in turn, moves happen together."""
-    return OrderEnforcingWrapper(_FleetAEC(parallel_env(**kwargs)))
+    return aec_form(parallel_env(**kwargs))

@@ -3,14 +3,20 @@
 :class:`FleetActions` turns the dict a PettingZoo ``step`` receives into the joint action
 array of the traffic rule, refusing anything else with a ``TypeError``/``ValueError``
 that names the robot, before anything changes. The usual case (every live robot, in
-order, with a plain integer) costs one array conversion.
+order, with a plain integer) costs one array conversion. :func:`aec_form` is the fleet
+as a PettingZoo AEC environment, whose robots' actions are checked as they are given.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from pettingzoo import AECEnv, ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-from warehouse_phys.envs.base import INTEGER_TYPES, number_text
+from warehouse_phys.envs.checks import INTEGER_TYPES, number_text
+
+__all__ = ["FleetAEC", "FleetActions", "aec_form"]
 
 
 class FleetActions:
@@ -69,3 +75,21 @@ class FleetActions:
                 f"{agent}'s action must be 0..{top} ({top} is WAIT), got {number_text(action)}"
             )
         return int(action)
+
+
+class FleetAEC(parallel_to_aec_wrapper):
+    """PettingZoo's AEC form of the fleet, refusing a bad action when it is given (the
+    joint step happens at the last robot's turn, too late to refuse it cleanly)."""
+
+    def step(self, action: int | None) -> None:
+        agent = self.agent_selection
+        if not (self.terminations[agent] or self.truncations[agent]):
+            action = self.env._actions.one(agent, action)
+        super().step(action)
+
+
+def aec_form(fleet: ParallelEnv) -> AECEnv:
+    """``fleet`` (a :class:`~warehouse_phys.envs.fleet.WarehouseFleetEnv`) as a PettingZoo
+    AEC environment: robots act in turn, their moves happen together, and each robot's
+    action is checked by the fleet's :class:`FleetActions` as it is given."""
+    return OrderEnforcingWrapper(FleetAEC(fleet))

@@ -8,7 +8,7 @@ out as the competition does (:class:`~warehouse_phys.envs.fleet.WarehouseFleetEn
 ``delayConfig`` (League of Robot Runners 2026), a tick a step.
 
     from warehouse_phys.envs import lorr
-    from warehouse_phys.planners.pibt import pibt_policy
+    from warehouse_phys.rl.fleet_planners import pibt_policy
 
     env = lorr.fleet("../shared/lorr/2023-main-warehouse/MR23-I-10.json", moves="rotate")
     observations, infos = env.reset(seed=0)

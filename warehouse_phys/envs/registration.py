@@ -28,7 +28,7 @@ DEFAULT_MAX_EPISODE_STEPS = 200
 _GRID_ENTRY_POINT = "warehouse_phys.envs.single:WarehouseGridEnv"
 _PHYSICS_ENTRY_POINT = "warehouse_phys.envs.single:WarehousePhysicsEnv"
 _GRID_VECTOR_ENTRY_POINT = "warehouse_phys.envs.vector:WarehouseGridVectorEnv"
-_PHYSICS_VECTOR_ENTRY_POINT = "warehouse_phys.envs.vector:WarehousePhysicsVectorEnv"
+_PHYSICS_VECTOR_ENTRY_POINT = "warehouse_phys.envs.vector_physics:WarehousePhysicsVectorEnv"
 
 
 def register_environments() -> None:

@@ -42,6 +42,7 @@ head does, decided by pointer doubling, and a closed chain (a *rotation*: robots
 entering the cell the next one leaves) goes in one tick when none of its robots is
 delayed. So a line of robots whose moves take the same ticks moves as one, one cell
 apart, as in lock step; a delayed robot stops those behind it only as they close in.
+The gap rule is :func:`~warehouse_phys.execution.following.may_follow`.
 
 **Plan times.** A move is *released* at the tick the plan meant it to start: a robot's
 plan starts when its current move ends, and step ``s`` of it is ``s`` moves of its
@@ -98,31 +99,35 @@ changes when a turn ends, :attr:`Executor.facing` is the heading the current act
 ends facing.
 
 Like :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
-pygame. Its length is one algorithm, the dependency graph, with the checks that a plan
-can be executed: split, the graph's guarantees would rest on two modules.
+pygame. Two parts of the model live beside it: the follow rule, whether a robot may
+advance into the cell its leader is leaving (:mod:`~warehouse_phys.execution.following`),
+and the checks that a plan can be executed (:mod:`~warehouse_phys.execution.plan_checks`);
+the graph's guarantees rest on the three together.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
 from typing import NamedTuple
 
 import numpy as np
 
-from warehouse_phys.execution.async_grid import GAP_SLACK, closest_squared
-from warehouse_phys.world.grid import ACTION_DELTAS, WarehouseGrid
-from warehouse_phys.world.headings import HEADING_MOVES
-from warehouse_phys.world.traffic import neighbour_table, robot_cell_indices
+from warehouse_phys.execution.following import DEFAULT_MIN_GAP, may_follow
+from warehouse_phys.execution.plan_checks import (
+    NO_ROBOT,
+    and_along,
+    check_plan,
+    check_turns,
+    checked_cells,
+    checked_delayed,
+    checked_gap,
+    checked_headings,
+    checked_path,
+    checked_ticks,
+    rows_cols,
+)
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.traffic import neighbour_table
 
-#: "No robot" in the dependency arrays.
-NO_ROBOT = -1
-#: Closest two robots' centres come by default [cells]: two robots that follow each
-#: other round a corner at the same pace pass this close (half a cell each way), so
-#: with moves of one tick every lock-step plan, corner follows included, runs as planned.
-DEFAULT_MIN_GAP = math.sqrt(0.5)
-#: ``(d_row, d_col)`` of a forward move along each heading (east, south, west, north).
-_HEADING_STEP = np.array(ACTION_DELTAS, dtype=np.int64)[HEADING_MOVES]
 #: Release of a move that may start at once [ticks].
 _AT_ONCE = np.iinfo(np.int64).min // 2
 
@@ -186,14 +191,14 @@ class Executor:
     ) -> None:
         self.grid = grid
         #: The closest two robots' centres may come [cells] (see the module).
-        self.min_gap = _checked_gap(min_gap)
+        self.min_gap = checked_gap(min_gap)
         here = checked_cells(grid, cells)
         n = len(here)
         #: Turning robots: the heading each faces (at the start of its current action),
         #: and the one its current action ends facing; ``None`` for four-direction robots.
-        self.headings = None if headings is None else _checked_headings(headings, n)
+        self.headings = None if headings is None else checked_headings(headings, n)
         self.facing = None if headings is None else self.headings.copy()
-        self._needed = _checked_ticks(ticks_needed, n)
+        self._needed = checked_ticks(ticks_needed, n)
         self._robots = np.arange(n)
         #: Ticks executed so far; the next tick is tick number ``tick``.
         self.tick = 0
@@ -261,12 +266,12 @@ class Executor:
         Raises:
             ValueError: naming ``path`` and the first robot and step that break this.
         """
-        cells, faces = _checked_path(self.grid, path, len(self._robots), self.facing is not None)
-        rotating = _check_plan(
+        cells, faces = checked_path(self.grid, path, len(self._robots), self.facing is not None)
+        rotating = check_plan(
             cells, self.entered, self._table, self._needed, self.grid, self.min_gap
         )
         if faces is not None:
-            _check_turns(cells, faces, self.facing, self.grid.cols)
+            check_turns(cells, faces, self.facing, self.grid.cols)
         self._moves, self._count = _build_moves(
             cells, faces, self.facing, self.left, self.entered, self.done, self._needed,
             self.tick, self._leaver,
@@ -290,7 +295,7 @@ class Executor:
             The tick's :class:`TickReport`.
         """
         n = len(self._robots)
-        delayed = np.zeros(n, dtype=bool) if delayed is None else _checked_delayed(delayed, n)
+        delayed = np.zeros(n, dtype=bool) if delayed is None else checked_delayed(delayed, n)
         ready, link, waiting, target = self._ready(delayed)
         advanced = ready & ~delayed
         follows = link != self._robots
@@ -333,38 +338,14 @@ class Executor:
         alone = np.zeros(len(robots), dtype=bool)
         together = np.zeros(len(robots), dtype=bool)
         if on_it.size:
-            alone[on_it], together[on_it] = self._follow_gaps(on_it, j[on_it], target)
+            alone[on_it], together[on_it] = may_follow(
+                on_it, j[on_it], self.left, target, done, self._needed, self.grid.cols,
+                self.min_gap,
+            )  # fmt: skip
             alone[on_it] &= ~moves.rotation[on_it, k[on_it]]  # a rotation goes as one
         ready = waiting & (~depends | (j_next > j_move) | alone | together)
         link = np.where(together & ~alone & ready, j, robots)
         return ready, link, waiting, target
-
-    def _follow_gaps(
-        self, followers: np.ndarray, leaders: np.ndarray, target: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Whether each follower may advance a tick into the cell its leader is leaving
-        with the leader standing still (which needs the leader in mid-move), and with the
-        leader advancing too: whether the two centres stay ``min_gap`` apart all tick."""
-        done, needed, cols = self.done, self._needed, self.grid.cols
-        step_f = _unit(self.left[followers], target[followers], cols)
-        step_l = _unit(self.left[leaders], target[leaders], cols)
-        f0 = done[followers] / needed[followers]
-        f1 = (done[followers] + 1) / needed[followers]
-        l0 = done[leaders] / needed[leaders]
-        l1 = (done[leaders] + 1) / needed[leaders]
-        # Leader minus follower, from the cell between them: l * step_l + (1 - f) * step_f.
-        start = l0[:, None] * step_l + (1 - f0)[:, None] * step_f
-        still = l0[:, None] * step_l + (1 - f1)[:, None] * step_f
-        both = l1[:, None] * step_l + (1 - f1)[:, None] * step_f
-        least = self.min_gap**2 * (1 - GAP_SLACK)
-        # A follower ends its move (at rest on the cell) only as or after its leader's
-        # move ends: a cell is left by one robot at a time, and a robot at rest holds its
-        # cell alone.
-        arrives = done[followers] + 1 == needed[followers]
-        leaves = done[leaders] + 1 == needed[leaders]
-        alone = (done[leaders] > 0) & ~arrives & (closest_squared(start, still) >= least)
-        together = (~arrives | leaves) & (closest_squared(start, both) >= least)
-        return alone, together
 
 
 class _Moves(NamedTuple):
@@ -451,208 +432,3 @@ def _build_moves(
     moves.dep_robot[i[first][has_leaver], k[first][has_leaver]] = waits_for[has_leaver]
     moves.dep_move[i[first][has_leaver], k[first][has_leaver]] = 0
     return moves, offset + moved.sum(axis=1)
-
-
-def and_along(link: np.ndarray, value: np.ndarray) -> np.ndarray:
-    """``value[i]`` and-ed with the values down ``i``'s chain of links (round its cycle),
-    by pointer doubling: ``link[i] == i`` ends a chain."""
-    value = value.copy()
-    for _ in range(max(1, len(link)).bit_length()):
-        further = link[link]
-        value &= value[link]
-        if (further == link).all():
-            return value
-        link = further
-    value &= value[link]  # a cycle: 2**bit_length(n) >= n links, round it and beyond
-    return value
-
-
-def _check_plan(
-    path: np.ndarray,
-    start: np.ndarray,
-    table: np.ndarray,
-    needed: np.ndarray,
-    grid: WarehouseGrid,
-    min_gap: float,
-) -> np.ndarray:
-    """Refuse a plan (``(N, S + 1)`` cell indices) that does not start from ``start``,
-    makes a move that is not one, puts two robots in a cell or across an edge, or has a
-    rotation the robots cannot make together; returns ``(S, N)`` bool, the robots that
-    rotate at each step."""
-    cols = grid.cols
-    wrong = np.flatnonzero(path[:, 0] != start)
-    if wrong.size:
-        i = int(wrong[0])
-        raise ValueError(
-            f"path must start from plan_cells(): robot {i} starts at "
-            f"{_cell(path[i, 0], cols)}, not {_cell(start[i], cols)}"
-        )
-    n, steps = path.shape[0], path.shape[1] - 1
-    if not steps or not n:
-        return np.zeros((steps, n), dtype=bool)
-    step_ok = (table[path[:, :-1]] == path[:, 1:, None]).any(axis=2)
-    if not step_ok.all():
-        i, s = (int(v[0]) for v in np.nonzero(~step_ok))
-        raise ValueError(
-            f"path moves robot {i} from {_cell(path[i, s], cols)} to "
-            f"{_cell(path[i, s + 1], cols)} at step {s + 1}: not a move to a free neighbour"
-        )
-    by_step = np.sort(path, axis=0)
-    shared = np.nonzero(by_step[1:] == by_step[:-1])
-    if shared[0].size:
-        s = int(shared[1][0])
-        cell = by_step[shared[0][0], s]
-        both = np.flatnonzero(path[:, s] == cell)[:2].tolist()
-        raise ValueError(f"path puts robots {both} on {_cell(cell, cols)} at step {s}")
-    return _check_follows(path, needed, cols, min_gap)
-
-
-def _check_follows(path: np.ndarray, needed: np.ndarray, cols: int, min_gap: float) -> np.ndarray:
-    """Refuse swaps, and rotations of robots whose moves take different ticks or that
-    could not pass each other round the rotation's corners with ``min_gap``; returns
-    ``(S, N)`` bool, the robots that rotate at each step."""
-    n, steps = path.shape[0], path.shape[1] - 1
-    # Who stands on each cell at each step: (step, cell) keys sorted, looked up.
-    keys = (np.arange(steps + 1)[None, :] * (path.max() + 1) + path).T.ravel()
-    order = np.argsort(keys, kind="stable")
-    sorted_keys = keys[order]
-    s_all = np.repeat(np.arange(steps), n)
-    before, after = path[:, :-1].T.ravel(), path[:, 1:].T.ravel()
-    enter = s_all * (path.max() + 1) + after  # the entered cell, one step earlier
-    spot = np.minimum(np.searchsorted(sorted_keys, enter), len(keys) - 1)
-    found = (sorted_keys[spot] == enter) & (before != after)
-    occupant = np.where(found, order[spot] % n, -1)  # robot there before the step
-    node = np.arange(n * steps)
-    follows = found & (occupant != node % n)
-    leader = np.where(follows, s_all * n + occupant, node)
-    swap = follows & (after[leader] == before)
-    if swap.any():
-        x = int(np.flatnonzero(swap)[0])
-        pair = sorted((x % n, int(occupant[x])))
-        raise ValueError(f"path swaps robots {pair} at step {x // n + 1}")
-    rotating = and_along(leader, follows)  # every robot down its chain follows: a cycle
-    mixed = rotating & ((needed[node % n] != needed[leader % n]) | (min_gap > DEFAULT_MIN_GAP))
-    if mixed.any():
-        x = int(np.flatnonzero(mixed)[0])
-        raise ValueError(
-            f"path rotates robot {x % n} (ticks_needed {int(needed[x % n])}, min_gap "
-            f"{min_gap:.3g}) round a cycle at step {x // n + 1}: only robots whose moves take "
-            "the same ticks, with min_gap at most sqrt(1/2), can rotate; plan without "
-            "rotations (pibt_window(..., rotations=False))"
-        )
-    return rotating.reshape(steps, n)
-
-
-def _unit(start: np.ndarray, end: np.ndarray, cols: int) -> np.ndarray:
-    """``(K, 2)`` float ``(d_row, d_col)`` of moves between cell indices (0 for no move)."""
-    rows_start, cols_start = np.divmod(start, cols)
-    rows_end, cols_end = np.divmod(end, cols)
-    return np.stack([rows_end - rows_start, cols_end - cols_start], axis=1).astype(np.float64)
-
-
-def checked_cells(grid: WarehouseGrid, cells: np.ndarray) -> np.ndarray:
-    """Distinct free cells as cell indices, or a one-line ``ValueError`` naming ``cells``."""
-    here = robot_cell_indices(grid, cells, prefix="cells: ")
-    shelf = ~grid.free_mask.reshape(-1)[here]
-    if shelf.any():
-        i = int(np.flatnonzero(shelf)[0])
-        raise ValueError(f"cells: robot {i}'s cell {divmod(int(here[i]), grid.cols)} is a shelf")
-    return here
-
-
-def _checked_ticks(ticks_needed: np.ndarray | int, n: int) -> np.ndarray:
-    """``(N,)`` int64 ticks of at least 1, or a one-line error naming ``ticks_needed``."""
-    ticks = np.asarray(ticks_needed)
-    if ticks.dtype.kind not in "iu":
-        raise TypeError(f"ticks_needed must be integers, got {ticks.dtype}")
-    if ticks.ndim == 0:
-        ticks = np.full(n, int(ticks), dtype=np.int64)
-    if ticks.shape != (n,):
-        raise ValueError(
-            f"ticks_needed must be one integer or one per robot ({n}), got {ticks.shape}"
-        )
-    if (ticks < 1).any():
-        i = int(np.flatnonzero(ticks < 1)[0])
-        raise ValueError(f"ticks_needed must be at least 1, got {int(ticks[i])} for robot {i}")
-    return ticks.astype(np.int64)
-
-
-def _checked_path(
-    grid: WarehouseGrid, path: np.ndarray, n: int, turning: bool
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """``(N, S + 1)`` cell indices of a plan's ``(row, col)`` cells on the floor, and the
-    turning robots' ``(N, S + 1)`` headings (``None`` for four-direction robots)."""
-    path = np.asarray(path)
-    width = 3 if turning else 2
-    if path.ndim != 3 or path.shape[0] != n or path.shape[1] < 1 or path.shape[2] != width:
-        what = "(row, col, heading)" if turning else "(row, col)"
-        raise ValueError(f"path must be (N={n}, steps + 1, {width}) {what}, got shape {path.shape}")
-    if path.dtype.kind not in "iu":
-        raise ValueError(f"path must hold integer cells, got {path.dtype}")
-    rows, cols = path[..., 0].astype(np.int64), path[..., 1].astype(np.int64)
-    off = (rows < 0) | (rows >= grid.rows) | (cols < 0) | (cols >= grid.cols)
-    if off.any():
-        i, s = (int(v[0]) for v in np.nonzero(off))
-        raise ValueError(f"path puts robot {i} off the floor at step {s}")
-    faces = path[..., 2].astype(np.int64) if turning else None
-    if faces is not None and ((faces < 0) | (faces > 3)).any():
-        i, s = (int(v[0]) for v in np.nonzero((faces < 0) | (faces > 3)))
-        raise ValueError(f"path gives robot {i} heading {faces[i, s]} at step {s}, not 0..3")
-    return rows * grid.cols + cols, faces
-
-
-def _check_turns(path: np.ndarray, faces: np.ndarray, facing: np.ndarray, cols: int) -> None:
-    """Refuse turning robots' plans that do not start facing ``facing``, move other than
-    forward along the heading, or turn other than a quarter turn in place."""
-    wrong = np.flatnonzero(faces[:, 0] != facing)
-    if wrong.size:
-        i = int(wrong[0])
-        raise ValueError(f"path must start from plan_headings(): robot {i} faces "
-                         f"{faces[i, 0]}, not {facing[i]}")  # fmt: skip
-    moved = path[:, 1:] != path[:, :-1]
-    turn = (faces[:, 1:] - faces[:, :-1]) % 4
-    ahead = _HEADING_STEP[faces[:, :-1]]  # (N, S) cell offsets of a forward move
-    step = path[:, 1:] - path[:, :-1]
-    bad = (moved & ((turn != 0) | (step != ahead[..., 0] * cols + ahead[..., 1]))) | (
-        ~moved & (turn == 2)
-    )
-    if bad.any():
-        i, s = (int(v[0]) for v in np.nonzero(bad))
-        raise ValueError(
-            f"path takes robot {i} from {_cell(path[i, s], cols)} facing {faces[i, s]} to "
-            f"{_cell(path[i, s + 1], cols)} facing {faces[i, s + 1]} at step {s + 1}: not a "
-            "forward move along its heading or a quarter turn in place"
-        )
-
-
-def _checked_gap(min_gap: object) -> float:
-    """``min_gap`` as a float in ``(0, 1]``, or a one-line error naming it."""
-    if isinstance(min_gap, (bool, np.bool_)) or not isinstance(min_gap, numbers.Real):
-        raise TypeError(f"min_gap must be a real number of cells, got {min_gap!r}")
-    gap = float(min_gap)
-    if not 0 < gap <= 1:
-        raise ValueError(f"min_gap must be in (0, 1] cells, got {min_gap!r}")
-    return gap
-
-
-def _checked_headings(headings: np.ndarray, n: int) -> np.ndarray:
-    """``(N,)`` int64 headings 0..3, or a one-line error naming ``headings``."""
-    heads = np.asarray(headings)
-    if heads.shape != (n,) or heads.dtype.kind not in "iu" or ((heads < 0) | (heads > 3)).any():
-        raise ValueError(f"headings must be ({n},) integers 0..3, got {heads.dtype} {heads.shape}")
-    return heads.astype(np.int64)
-
-
-def _checked_delayed(delayed: np.ndarray, n: int) -> np.ndarray:
-    delayed = np.asarray(delayed)
-    if delayed.shape != (n,) or delayed.dtype != bool:
-        raise ValueError(f"delayed must be ({n},) bool, got {delayed.dtype} {delayed.shape}")
-    return delayed
-
-
-def rows_cols(cells: np.ndarray, cols: int) -> np.ndarray:
-    return np.stack(np.divmod(cells, cols), axis=-1)
-
-
-def _cell(index: int, cols: int) -> tuple[int, int]:
-    return divmod(int(index), cols)

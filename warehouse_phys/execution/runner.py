@@ -28,7 +28,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from warehouse_phys.execution.delays import DelayConfig, DelayGenerator
-from warehouse_phys.execution.executor import DEFAULT_MIN_GAP, Executor, TickReport
+from warehouse_phys.execution.executor import Executor, TickReport
+from warehouse_phys.execution.following import DEFAULT_MIN_GAP
 from warehouse_phys.execution.ticks import check_ticks_per_move, check_whole, move_ticks
 from warehouse_phys.execution.windows import pibt_window
 from warehouse_phys.planners.pibt import PIBT

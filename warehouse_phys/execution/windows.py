@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warehouse_phys.execution.executor import NO_ROBOT, and_along, checked_cells, rows_cols
+from warehouse_phys.execution.plan_checks import NO_ROBOT, and_along, checked_cells, rows_cols
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.world.headings import HEADING_MOVES, TurnAction, turned
 from warehouse_phys.world.traffic import WAIT, neighbour_table

@@ -4,9 +4,14 @@
 - :mod:`~warehouse_phys.physics.engine`: every call into pymunk and chipmunk;
 - :mod:`~warehouse_phys.physics.world`: one robot's world (the single environment's);
 - :mod:`~warehouse_phys.physics.controller`: the check that a setting keeps every promise;
-- :mod:`~warehouse_phys.physics.batched`: many robots in one space (vector envs, fleets);
+- :mod:`~warehouse_phys.physics.batched`: many robots in one space (vector envs, fleets),
+  on the floors of :mod:`~warehouse_phys.physics.floor_lattice`, moved in lock step by
+  :mod:`~warehouse_phys.physics.lockstep`, read and written through
+  :mod:`~warehouse_phys.physics.body_io`;
 - :mod:`~warehouse_phys.physics.ticking`: bodies driven tick by tick between cells
-  (asynchronous execution), the tick controller check and the clearance formula.
+  (asynchronous execution) and the clearance formula; a tick's arguments are checked by
+  :mod:`~warehouse_phys.physics.tick_arguments`, the tick controller check is
+  :mod:`~warehouse_phys.physics.tick_controller`.
 
 The names of the first four are importable from here, as they were from the
 single module this package replaces.

@@ -12,7 +12,7 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   gets a new goal, when PIBT moved it off its path (pushed aside or back), and for
   ``refresh`` other robots a step (in turn): an A* whose move from ``u`` to ``v`` costs
   ``1 + vertex_weight * (guide paths leaving v) + contraflow_weight * (paths u->v + 1) *
-  (paths v->u)`` (:func:`~warehouse_phys.planners.graph_search.congestion_path`). A robot
+  (paths v->u)`` (:func:`~warehouse_phys.planners.traffic_flow.congestion_path`). A robot
   that moved beside a cell further along its path rejoins it there without a search
   (``rejoin=True``: also one pushed aside; on MR23-I-10 searching anew did better).
 - Turning robots (``moves="rotate"``): a quarter turn costs ``turn_cost`` more in their
@@ -46,6 +46,10 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   when every robot needs its first guide path, can have a bound of its own
   (``first_time_limit``; ``math.inf`` for none).
 
+Every knob is a field of :class:`~warehouse_phys.planners.guidance_config.GuidanceConfig`;
+the guide paths' searches and the flow's bookkeeping are compiled in
+:mod:`warehouse_phys.planners.traffic_flow`.
+
 :class:`GuidedPIBT` is the planner: this guidance in front of PIBT's one-step resolution
 (the same :class:`~warehouse_phys.planners.pibt.PIBT`, through its ``candidate_values``).
 Deterministic for a seed and the same inputs, as long as ``time_limit`` is not reached
@@ -60,8 +64,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from warehouse_phys.planners import graph_search
+from warehouse_phys.planners import graph_search, traffic_flow
 from warehouse_phys.planners.distances import DistanceMaps
+from warehouse_phys.planners.guidance_config import MAX_LANE_PATHS, GuidanceConfig
 from warehouse_phys.planners.lanes import NO_LANE, one_way_lanes
 from warehouse_phys.planners.operations import OperationPIBT
 from warehouse_phys.planners.pibt import PIBT
@@ -69,82 +74,9 @@ from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES
 from warehouse_phys.world.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 
-#: Most phantom guide paths a lane may carry (``turn_lane_paths``); far fewer already
-#: price driving against a lane above any way round.
-MAX_LANE_PATHS = 1000
-
-
-@dataclass(frozen=True)
-class GuidanceConfig:
-    """How :class:`TrafficGuidance` prices and refreshes guide paths."""
-
-    #: Cost of a move per guide path leaving the cell it enters [moves].
-    vertex_weight: float = 0.5
-    #: Cost of a move per product of the paths along it (itself included) and against it.
-    contraflow_weight: float = 1.0
-    #: The A*'s heuristic is this times the Manhattan distance (1: the cheapest path).
-    heuristic_weight: float = 1.0
-    #: Cost of a quarter turn in a turning robot's guide path [moves] (None: its guide
-    #: path is searched as a four-direction robot's).
-    turn_cost: float | None = 1.0
-    #: A turn holds up the robots behind it: a quarter turn at a cell costs ``turn_cost``
-    #: times (1 + this times the guide paths leaving the cell; 0: ``turn_cost`` alone).
-    turn_traffic_weight: float = 0.5
-    #: ``contraflow_weight`` for a turning robot's guide path (None: the same): a turning
-    #: robot that meets another head-on must turn round (two turns) or wait, so paths
-    #: against the traffic cost it more.
-    turn_contraflow_weight: float | None = 4.0
-    #: One-way lanes for turning robots: phantom guide paths laid along the lane of every
-    #: cell of a one-cell-wide corridor (:func:`~warehouse_phys.planners.lanes.one_way_lanes`),
-    #: so that a guide path against a lane pays the contraflow of this many paths (0: no
-    #: lanes).
-    turn_lane_paths: int = 2
-    #: Whether robots follow their guide paths (else distances with a flow tie-break).
-    follow: bool = True
-    #: Robots whose guide path is searched anew each step besides those that need one.
-    refresh: int = 0
-    #: How many cells of its guide path ahead of a robot are looked at [cells].
-    window: int = 8
-    #: Whether a robot pushed aside or back, one move off its guide path, rejoins it
-    #: (else a new search; a robot beside a cell further along always rejoins).
-    rejoin: bool = False
-    #: Most guide-path searches in one step (None: no bound).
-    max_searches: int | None = None
-    #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
-    #: each: the robots left get PIBT's distances (and the run may differ between runs).
-    time_limit: float | None = None
-    #: The first step's own bound [s] (``math.inf``: none), when every robot needs its
-    #: first guide path (None: ``time_limit`` bounds it too). At 10,000 robots a step's
-    #: ``time_limit`` cannot hold the first step's 10,000 searches, and the robots it
-    #: leaves unguided become a backlog that later steps never clear.
-    first_time_limit: float | None = None
-
-    def __post_init__(self) -> None:
-        for name in ("vertex_weight", "contraflow_weight", "turn_traffic_weight"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
-        if self.turn_contraflow_weight is not None and not self.turn_contraflow_weight >= 0:
-            raise ValueError(
-                f"turn_contraflow_weight must be >= 0 or None, got {self.turn_contraflow_weight!r}"
-            )
-        lane_paths = self.turn_lane_paths
-        if isinstance(lane_paths, bool) or not isinstance(lane_paths, int | np.integer):
-            raise TypeError(f"turn_lane_paths must be an int, got {lane_paths!r}")
-        if not 0 <= lane_paths <= MAX_LANE_PATHS:
-            raise ValueError(f"turn_lane_paths must be in 0..{MAX_LANE_PATHS}, "
-                             f"got {lane_paths!r}")  # fmt: skip
-        if not self.heuristic_weight >= 1:
-            raise ValueError(f"heuristic_weight must be >= 1, got {self.heuristic_weight!r}")
-        if self.turn_cost is not None and not self.turn_cost >= 0:
-            raise ValueError(f"turn_cost must be >= 0 or None, got {self.turn_cost!r}")
-        if self.refresh < 0 or self.window < 1:
-            raise ValueError(f"refresh must be >= 0 and window >= 1, got {self!r}")
-        if self.max_searches is not None and self.max_searches < 0:
-            raise ValueError(f"max_searches must be >= 0 or None, got {self.max_searches!r}")
-        for name in ("time_limit", "first_time_limit"):
-            value = getattr(self, name)
-            if value is not None and not value >= 0:
-                raise ValueError(f"{name} must be >= 0 or None, got {value!r}")
+#: The configuration's names (:mod:`warehouse_phys.planners.guidance_config`) still import
+#: from here.
+__all__ = ["MAX_LANE_PATHS", "GuidanceConfig", "GuidedPIBT", "TrafficGuidance"]
 
 
 @dataclass
@@ -260,7 +192,7 @@ class TrafficGuidance:
         paths.goal[:] = np.where(active, goal, -1)
         status = np.ones(len(here), dtype=np.int8)
         column = self._column[here]
-        graph_search.follow_paths(self._graph, self.flow, paths.pool, paths.start, paths.moves,
+        traffic_flow.follow_paths(self._graph, self.flow, paths.pool, paths.start, paths.moves,
                                   paths.cursor, column, self.config.window, self.config.rejoin,
                                   status)  # fmt: skip
         status[~active] = 1
@@ -284,7 +216,7 @@ class TrafficGuidance:
         if not robots.size:
             return values
         found = np.empty((robots.size, cells.shape[1]), dtype=np.float64)
-        graph_search.follow_values(self._paths.pool, self._paths.start, self._paths.moves,
+        traffic_flow.follow_values(self._paths.pool, self._paths.start, self._paths.moves,
                                    self._paths.cursor, self._cell_row, self._cell_col,
                                    self._column[cells[robots]], robots, self.config.window,
                                    found, float(beside_cost))  # fmt: skip
@@ -331,7 +263,7 @@ class TrafficGuidance:
             contraflow = config.turn_contraflow_weight
         costs = np.array([config.vertex_weight, contraflow, config.heuristic_weight,
                           config.turn_cost or 0.0, config.turn_traffic_weight])  # fmt: skip
-        moves = graph_search.congestion_path(
+        moves = traffic_flow.congestion_path(
             self._graph, self._cell_row, self._cell_col, self.flow, source, goal, costs,
             self._scratch, self._g_cost, self._generation, self._path, int(facing))  # fmt: skip
         if moves < 0:
@@ -343,7 +275,7 @@ class TrafficGuidance:
         paths.pool[paths.used + 1 : paths.used + moves + 2] = path
         paths.start[i], paths.moves[i], paths.cursor[i] = paths.used + 1, moves, 0
         paths.used += moves + 2
-        graph_search.add_flow(self._graph, self.flow, path, 1)
+        traffic_flow.add_flow(self._graph, self.flow, path, 1)
         return True
 
     def _drop(self, robots: np.ndarray) -> None:
@@ -353,7 +285,7 @@ class TrafficGuidance:
             if paths.moves[i] >= 0:
                 first = paths.start[i] + paths.cursor[i]
                 rest = paths.pool[first : paths.start[i] + paths.moves[i] + 1]
-                graph_search.add_flow(self._graph, self.flow, rest, -1)
+                traffic_flow.add_flow(self._graph, self.flow, rest, -1)
             paths.moves[i] = -1
 
     def _compact(self, needed: int) -> None:

@@ -1,5 +1,6 @@
-"""Fleet policies (``FleetPolicy``) of the planners beyond plain PIBT, by name.
+"""Fleet policies (``FleetPolicy``) of the planners, by name.
 
+:func:`pibt_policy` plans with :class:`~warehouse_phys.planners.pibt.PIBT`.
 :func:`guided_pibt_policy` plans with :class:`~warehouse_phys.planners.guidance.GuidedPIBT`:
 PIBT following guide paths priced by the fleet's traffic. :func:`planner_policy` gives a
 policy by name (``"pibt"``, ``"guided"``, the guidance's ablations ``"guided-costs"``
@@ -16,8 +17,9 @@ from typing import Any
 import numpy as np
 
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
-from warehouse_phys.planners.guidance import GuidanceConfig, GuidedPIBT
-from warehouse_phys.planners.pibt import pibt_policy
+from warehouse_phys.planners.guidance import GuidedPIBT
+from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.rl.fleet_evaluation import FleetPolicy
 
 #: The guidance of each named planner: following congestion-priced guide paths
@@ -40,6 +42,40 @@ PLANNER_OPERATIONS: dict[str, GuidanceConfig] = {
 OPERATION_DEPTH = 3
 #: Every name :func:`planner_policy` knows.
 PLANNERS = ("pibt", *PLANNER_GUIDANCE, *PLANNER_OPERATIONS)
+
+
+def pibt_policy(seed: int = 0) -> FleetPolicy:
+    """A fleet policy (``FleetPolicy``) that plans with :class:`~warehouse_phys.planners.pibt.PIBT`:
+    stateful across the steps of an episode, started afresh when the environment resets
+    (``env.steps`` back at 0) or another environment calls it. It reads the fleet's public
+    state only: ``grid``, ``robot_cells``, ``package_cells``, ``parked``, ``on_floor``,
+    ``steps``, ``corner_follows``, ``distances``, and for turning robots ``moves`` and
+    ``robot_headings``."""
+    state: dict[str, Any] = {"env": None, "planner": None, "index": {}}
+
+    def policy(
+        env: WarehouseFleetEnv,
+        observations: dict[str, np.ndarray],
+        infos: dict[str, dict[str, Any]],
+    ) -> dict[str, int]:
+        if state["env"] is not env or env.steps == 0:
+            state["env"] = env
+            state["planner"] = PIBT(env.grid, distances=env.distances,
+                                    corner_follows=env.corner_follows, seed=seed,
+                                    moves=getattr(env, "moves", "grid"))  # fmt: skip
+            state["index"] = {agent: i for i, agent in enumerate(env.possible_agents)}
+        planner: PIBT = state["planner"]
+        actions = planner.plan(
+            env.robot_cells,
+            env.package_cells,
+            ~env.parked & env.on_floor,
+            env.on_floor,
+            headings=getattr(env, "robot_headings", None),
+        ).tolist()
+        index = state["index"]
+        return {agent: actions[index[agent]] for agent in env.agents}
+
+    return policy
 
 
 class GuidedPIBTPolicy:
@@ -96,8 +132,8 @@ def guided_pibt_policy(
     0 for one-step PIBT): stateful across the steps of an episode, started afresh when
     the environment resets (``env.steps`` back at 0) or another environment calls it, and
     deterministic for a seed (while the guidance's ``time_limit`` is not reached). It reads
-    the fleet's public state only, as :func:`~warehouse_phys.planners.pibt.pibt_policy`
-    does (a :class:`GuidedPIBTPolicy`)."""
+    the fleet's public state only, as :func:`pibt_policy` does (a
+    :class:`GuidedPIBTPolicy`)."""
     return GuidedPIBTPolicy(seed, config, operations)
 
 

@@ -21,22 +21,30 @@ notebooks and any script::
 Tables are saved as ``.npz`` archives holding only numbers and a JSON string,
 written atomically, and loaded without pickle and with strict checks, so loading a
 file can never run code: that file format is :mod:`warehouse_phys.rl.qtable_file`, whose
-names are importable from here too.
-
-Its length is one algorithm and its evaluation, shared by the single and the fleet
-learner.
+names are importable from here too, as are those of the greedy policy and its evaluation
+(:mod:`warehouse_phys.rl.greedy_policy`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from warehouse_phys.planners.distances import DistanceMaps
+# The greedy policy and its evaluation live in greedy_policy; re-exported here, where
+# they lived first and where the README, the notebooks and the tests import them.
+from warehouse_phys.rl.greedy_policy import (
+    Evaluation,
+    TargetResult,
+    evaluate,
+    greedy_action,
+    greedy_actions,
+    grid_size,
+    state_values,
+)
 
 # The table file and the memory budget live in qtable_file; re-exported here, where
 # they lived first and where the README, the notebooks and the tests import them.
@@ -58,8 +66,6 @@ from warehouse_phys.rl.qtable_file import (
     table_kind,
     table_tail,
 )
-from warehouse_phys.world.grid import Cell
-from warehouse_phys.world.traffic import neighbour_table
 
 
 @dataclass(frozen=True)
@@ -177,7 +183,7 @@ def train(
             :data:`TRAINING_MEMORY_BUDGET` (checked before anything is allocated).
     """
     config = config or QLearningConfig()
-    rows, cols = _grid_size(env)
+    rows, cols = grid_size(env)
     check_training_memory(rows, cols, config.episodes)
     if q is None:
         q = new_q_table(rows, cols)
@@ -290,199 +296,14 @@ def td_update(
     values[action] += alpha * (td_target - values[action])
 
 
-def greedy_action(q: np.ndarray, obs: Sequence[int] | np.ndarray) -> int:
-    """The greedy action for observation ``obs``: the first of the best-valued actions."""
-    return int(q[tuple(int(v) for v in obs)].argmax())
-
-
-def greedy_actions(q: np.ndarray, target: tuple[int, int]) -> np.ndarray:
-    """The greedy action in every cell when the package is on ``target``.
-
-    Returns an ``(R, C)`` int64 array of action values; ``-1`` marks cells whose
-    four values are all still zero (never updated: unvisited, the target itself,
-    shelves), where the greedy choice means nothing.
-    """
-    values = _target_slice(q, target)
-    actions = values.argmax(axis=-1).astype(np.int64)
-    actions[~values.any(axis=-1)] = -1
-    return actions
-
-
-def state_values(q: np.ndarray, target: tuple[int, int]) -> np.ndarray:
-    """``max_a Q(cell, target, a)`` for every cell: an ``(R, C)`` float64 array.
-
-    With reward 1 on arrival and discount ``gamma``, a cell ``d`` steps from the
-    target has the value ``gamma ** (d - 1)`` under the optimal policy; a
-    trained table approaches that.
-    """
-    return _target_slice(q, target).max(axis=-1).astype(np.float64)
-
-
-def _target_slice(q: np.ndarray, target: tuple[int, int]) -> np.ndarray:
-    if q.ndim != 5 or q.shape[:2] != q.shape[2:4] or q.shape[4] != 4:
-        raise ValueError(f"expected a Q-table of shape (R, C, R, C, 4), got {q.shape}")
-    row, col = (int(v) for v in target)
-    if not (0 <= row < q.shape[2] and 0 <= col < q.shape[3]):
-        raise ValueError(f"target {(row, col)} is off the {q.shape[2]}x{q.shape[3]} grid")
-    return q[:, :, row, col, :]
-
-
-# ------------------------------------------------------------------ evaluation
-@dataclass(frozen=True)
-class TargetResult:
-    """How the greedy policy did from the start against one target."""
-
-    target: Cell
-    #: Actions taken to reach the target, or ``None`` if it never got there.
-    steps: int | None
-    #: The fewest actions that reach it.
-    optimal_steps: int
-
-    @property
-    def reached(self) -> bool:
-        return self.steps is not None
-
-    @property
-    def optimal(self) -> bool:
-        return self.steps == self.optimal_steps
-
-
-@dataclass(frozen=True)
-class Evaluation:
-    """The greedy policy against every possible target."""
-
-    results: tuple[TargetResult, ...]
-
-    @property
-    def reached(self) -> int:
-        """How many targets the policy reached."""
-        return sum(r.reached for r in self.results)
-
-    @property
-    def optimal(self) -> int:
-        """How many targets it reached by a shortest path."""
-        return sum(r.optimal for r in self.results)
-
-    @property
-    def all_optimal(self) -> bool:
-        """Whether it reached every target by a shortest path."""
-        return self.optimal == len(self.results)
-
-    def summary(self) -> str:
-        """One line: how many of the targets were reached, and how many optimally."""
-        n = len(self.results)
-        if self.all_optimal:
-            return (
-                "the target reached by a shortest path"
-                if n == 1
-                else (f"all {n} targets reached by a shortest path")
-            )
-        return f"{self.reached} of {n} targets reached, {self.optimal} of them by a shortest path"
-
-    def table(self) -> str:
-        """The results as a text table, one target per line, then the summary."""
-        lines = [f"{'target':<10}{'steps':>7}{'optimal':>9}  result"]
-        for r in self.results:
-            if not r.reached:
-                verdict, steps = "not reached", "-"
-            else:
-                verdict = "shortest path" if r.optimal else f"{r.steps - r.optimal_steps} too many"
-                steps = str(r.steps)
-            target = f"({r.target[0]}, {r.target[1]})"
-            lines.append(f"{target:<10}{steps:>7}{r.optimal_steps:>9}  {verdict}")
-        lines.append(self.summary())
-        return "\n".join(lines)
-
-    def to_json(self) -> dict[str, Any]:
-        """A JSON-ready summary with one entry per target."""
-        return {
-            "targets": len(self.results),
-            "reached": self.reached,
-            "optimal": self.optimal,
-            "all_optimal": self.all_optimal,
-            "results": [
-                {"target": list(r.target), "steps": r.steps, "optimal_steps": r.optimal_steps}
-                for r in self.results
-            ],
-        }
-
-
-def evaluate(env: gym.Env, q: np.ndarray, *, max_steps: int | None = None) -> Evaluation:
-    """Run the greedy policy of ``q`` from the start against every possible target.
-
-    Each target of ``env.unwrapped.grid.target_cells`` is tried from the floor's start,
-    as ``reset(options={"target": ...})`` places it. An episode stops on the target, at
-    the environment's time limit, or after ``max_steps`` actions (default: the time
-    limit of ``env.spec``, else 4 x the number of cells), whichever comes first.
-
-    The episodes are played on the floor's rules, every target at once with array
-    operations (both environments move by those rules; the physics twin is proven to
-    end every move on the grid's cell), and a greedy walk that has made as many moves as
-    the floor has reachable cells without arriving has gone round a loop it never
-    leaves, so it stops there: the cost is bounded by the floor's size, not by the time
-    limit (a 60 x 60 floor evaluates in well under a second).
-
-    Raises:
-        ValueError: if the table's shape does not fit the environment's grid.
-    """
-    rows, cols = _grid_size(env)
-    if q.shape != (rows, cols, rows, cols, 4):
-        raise ValueError(
-            f"Q-table of shape {q.shape} does not fit a {rows}x{cols} grid "
-            f"(expected {(rows, cols, rows, cols, 4)})"
-        )
-    if max_steps is None:
-        spec = getattr(env, "spec", None)
-        max_steps = (spec.max_episode_steps if spec else None) or 4 * rows * cols
-    grid = env.unwrapped.grid
-    targets = np.array(grid.target_cells, dtype=np.int64).reshape(-1, 2)
-    goal = targets[:, 0] * cols + targets[:, 1]
-    start = grid.start[0] * cols + grid.start[1]
-    moves = neighbour_table(grid)
-    cell = np.full(len(targets), start, dtype=np.int64)
-    steps = np.full(len(targets), -1, dtype=np.int64)
-    walking = np.flatnonzero(cell != goal)
-    for step in range(1, min(max_steps, len(grid.reachable)) + 1):
-        if not walking.size:
-            break
-        row, col = np.divmod(cell[walking], cols)
-        action = q[row, col, targets[walking, 0], targets[walking, 1]].argmax(axis=1)
-        after = moves[cell[walking], action]
-        stuck = after == cell[walking]  # a bump: the same action again, for ever
-        cell[walking] = after
-        arrived = after == goal[walking]
-        steps[walking[arrived]] = step
-        walking = walking[~(arrived | stuck)]
-    optimal = DistanceMaps(grid).lookup(goal, np.full_like(goal, start))
-    return Evaluation(
-        tuple(
-            TargetResult(Cell(int(r), int(c)), None if n < 0 else int(n), int(best))
-            for (r, c), n, best in zip(
-                targets.tolist(), steps.tolist(), optimal.tolist(), strict=True
-            )
-        )
-    )
-
-
 # ------------------------------------------------------------------ metadata
 def table_metadata(env: gym.Env, config: QLearningConfig) -> dict[str, Any]:
     """The metadata saved next to a table trained on ``env`` with ``config`` (see
     :func:`~warehouse_phys.rl.qtable_file.make_table_metadata`)."""
-    _grid_size(env)  # a warehouse environment
+    grid_size(env)  # a warehouse environment
     spec = getattr(env, "spec", None)
     env_id = spec.id if spec else type(env.unwrapped).__name__
     return make_table_metadata(env_id, env.unwrapped.grid, config)
-
-
-def _grid_size(env: gym.Env) -> tuple[int, int]:
-    base = env.unwrapped
-    rows, cols = getattr(base, "grid_rows", None), getattr(base, "grid_cols", None)
-    if rows is None or cols is None or getattr(env.action_space, "n", None) != 4:
-        raise ValueError(
-            f"{type(base).__name__} is not a warehouse environment: Q-learning here needs "
-            "grid_rows, grid_cols and 4 actions"
-        )
-    return rows, cols
 
 
 __all__ = [

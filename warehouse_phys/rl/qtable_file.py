@@ -30,7 +30,8 @@ import numpy as np
 
 from warehouse_phys.files.atomic import atomic_write
 from warehouse_phys.files.npzfile import ArchiveError, NpzReader
-from warehouse_phys.world.grid import MAX_SIDE, WarehouseGrid
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layout_text import MAX_SIDE
 from warehouse_phys.world.layouts import PRESETS, preset_ids, preset_name
 
 #: Largest metadata string read from a table file [bytes].

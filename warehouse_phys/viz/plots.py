@@ -4,28 +4,37 @@ Every function returns a :class:`matplotlib.figure.Figure` with its own Agg
 canvas: no pyplot, no window, nothing global. Save one with
 :func:`save_figure`; in a notebook it shows inline after ``%matplotlib inline``.
 
-A module of figures, one function each: long because there are many figures, not
-because any is.
+The canvas and the helpers every figure shares are :mod:`warehouse_phys.viz.figures`; the
+figures of lifelong fleet runs (throughput, congestion, planners' scaling) are
+:mod:`warehouse_phys.viz.throughput_figures`. Their names still import from here.
 """
 
 from __future__ import annotations
 
-import json
-import os
-import textwrap
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from warehouse_phys.files.atomic import atomic_write
 from warehouse_phys.physics import PhysicsConfig
-from warehouse_phys.rl.qlearning import TrainingResult, greedy_actions, state_values
+from warehouse_phys.rl.greedy_policy import greedy_actions, state_values
+from warehouse_phys.rl.qlearning import TrainingResult
+
+# The canvas and the fleet runs' figures live in modules of their own; re-exported here,
+# where they lived first (see __all__).
+from warehouse_phys.viz.figures import free_mask, new_figure, rolling_mean, save_figure
+from warehouse_phys.viz.throughput_figures import (
+    PLANNER_LABELS,
+    TITLE_SHARE,
+    TITLE_WIDTH,
+    congestion_figure,
+    planner_scaling_figure,
+    throughput_by_robots_figure,
+    throughput_figure,
+)
 from warehouse_phys.world.grid import WarehouseGrid
 
 if TYPE_CHECKING:
@@ -35,17 +44,6 @@ if TYPE_CHECKING:
 ROLLING_WINDOW = 100
 
 
-def rolling_mean(values: np.ndarray, window: int) -> np.ndarray:
-    """The mean of the last ``window`` values at each position (of fewer at the start)."""
-    if window < 1:
-        raise ValueError(f"window must be at least 1, got {window}")
-    values = np.asarray(values, dtype=np.float64)
-    sums = np.concatenate(([0.0], np.cumsum(values)))
-    end = np.arange(1, len(values) + 1)
-    start = np.maximum(end - window, 0)
-    return (sums[end] - sums[start]) / (end - start)
-
-
 def learning_curve_figure(result: TrainingResult, title: str = "") -> Figure:
     """Two panels: the rolling mean of steps per episode, and the success of each episode.
 
@@ -53,7 +51,7 @@ def learning_curve_figure(result: TrainingResult, title: str = "") -> Figure:
     shows each episode as a dot (1 reached, 0 truncated) and the rolling
     success rate over the same window.
     """
-    figure = _figure(figsize=(8, 5.5))
+    figure = new_figure(figsize=(8, 5.5))
     steps_axes, success_axes = figure.subplots(2, 1, sharex=True)
     _draw_learning_curve(result, steps_axes, success_axes)
     if title:
@@ -69,7 +67,7 @@ def learning_curves_figure(results: Mapping[str, TrainingResult], title: str = "
     """
     if not results:
         raise ValueError("results is empty: nothing to plot")
-    figure = _figure(figsize=(4.5 * len(results), 5.5))
+    figure = new_figure(figsize=(4.5 * len(results), 5.5))
     axes = figure.subplots(2, len(results), sharex=True, sharey="row", squeeze=False)
     for column, (name, result) in enumerate(results.items()):
         _draw_learning_curve(result, axes[0, column], axes[1, column])
@@ -125,7 +123,7 @@ def frame_strips_figure(
     captions = captions or {}
     columns = max(len(frames) for frames in strips.values())
     height, width = np.shape(next(iter(strips.values()))[0])[:2]
-    figure = _figure(
+    figure = new_figure(
         figsize=(frame_inches * columns, (frame_inches * height / width + 0.35) * len(strips))
     )
     axes = figure.subplots(len(strips), columns, squeeze=False)
@@ -161,7 +159,7 @@ def path_figure(
         path: ``(k, 2)`` the body's positions in cell units (one per physics step).
         title: The figure's title.
     """
-    figure = _figure(figsize=(1.0 * grid.cols + 1.5, 1.0 * grid.rows + 0.8))
+    figure = new_figure(figsize=(1.0 * grid.cols + 1.5, 1.0 * grid.rows + 0.8))
     ax = figure.subplots()
     _draw_floor(ax, grid, target)
     cells = np.asarray(cells, dtype=np.float64)
@@ -185,7 +183,7 @@ def speed_profile_figure(
     times: np.ndarray, speeds: np.ndarray, config: PhysicsConfig, title: str = ""
 ) -> Figure:
     """The body's speed over one move, with the controller's speed limit and the settle phase."""
-    figure = _figure(figsize=(6.5, 3.2))
+    figure = new_figure(figsize=(6.5, 3.2))
     ax = figure.subplots()
     settle_from = config.move_duration - config.settle_time
     ax.axvspan(settle_from, config.move_duration, color="0.92", label="settle phase")
@@ -257,7 +255,7 @@ def fleet_delay_figure(evaluations: Mapping[str, FleetEvaluation], title: str = 
     if not evaluations:
         raise ValueError("evaluations is empty: nothing to plot")
     names = list(evaluations)
-    figure = _figure(figsize=(7.5, 3.2))
+    figure = new_figure(figsize=(7.5, 3.2))
     steps_ax, missed_ax = figure.subplots(1, 2)
     x = np.arange(len(names))
     shortest = [evaluations[n].shortest_steps for n in names]
@@ -292,7 +290,7 @@ def policy_figure(q: np.ndarray, grid: WarehouseGrid, target: tuple[int, int]) -
     """
     actions = greedy_actions(q, target)
     values = state_values(q, target)
-    figure = _figure(figsize=(2 * (0.9 * grid.cols + 0.8), 0.9 * grid.rows + 0.9))
+    figure = new_figure(figsize=(2 * (0.9 * grid.cols + 0.8), 0.9 * grid.rows + 0.9))
     policy_ax, value_ax = figure.subplots(1, 2)
 
     _draw_floor(policy_ax, grid, target)
@@ -305,7 +303,7 @@ def policy_figure(q: np.ndarray, grid: WarehouseGrid, target: tuple[int, int]) -
     policy_ax.set_title("greedy action")
 
     # Shelves and the target (where an episode ends, so never updated) have no value to show.
-    hidden = ~_free_mask(grid)
+    hidden = ~free_mask(grid)
     hidden[target[0], target[1]] = True
     shown = np.ma.masked_array(values, mask=hidden)
     image = value_ax.imshow(shown, cmap="viridis", vmin=0, vmax=max(1.0, float(values.max())))
@@ -335,7 +333,7 @@ def sweep_figure(
         title: The figure's title.
     """
     labels = list(configurations)
-    figure = _figure((12, 2.4 + 0.4 * max(len(labels), 3)))
+    figure = new_figure((12, 2.4 + 0.4 * max(len(labels), 3)))
     optimal_axes, curve_axes = figure.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1.4]})
     colours = [f"C{i % 10}" for i in range(len(labels))]
     for row, (label, colour) in enumerate(zip(labels, colours, strict=True)):
@@ -390,14 +388,6 @@ def _draw_floor(ax: Axes, grid: WarehouseGrid, target: tuple[int, int]) -> None:
     ax.plot(grid.start[1], grid.start[0], "o", color="0.3", markersize=4)
 
 
-def _free_mask(grid: WarehouseGrid) -> np.ndarray:
-    mask = np.ones((grid.rows, grid.cols), dtype=bool)
-    if grid.shelves:
-        shelves = np.array(sorted(grid.shelves))
-        mask[shelves[:, 0], shelves[:, 1]] = False
-    return mask
-
-
 def _histogram_figure(
     values: np.ndarray,
     bins: np.ndarray,
@@ -410,7 +400,7 @@ def _histogram_figure(
     """A histogram of ``values`` over ``bins`` with a vertical line at each ``x`` of
     ``lines`` (drawn with its keyword arguments, a ``label`` for the legend), the figure
     of the snap errors and of the fleet's gaps; returns the figure and its axes."""
-    figure = _figure(figsize=(6.5, 3.2))
+    figure = new_figure(figsize=(6.5, 3.2))
     ax = figure.subplots()
     ax.hist(values, bins=bins, color="C0")
     for x, style in lines:
@@ -423,139 +413,25 @@ def _histogram_figure(
     return figure, ax
 
 
-def _figure(figsize: tuple[float, float]) -> Figure:
-    """A figure with its own Agg canvas: no pyplot, no window, no global state."""
-    figure = Figure(figsize=figsize, layout="constrained")
-    FigureCanvasAgg(figure)
-    return figure
-
-
-def save_figure(figure: Figure, path: str | os.PathLike[str]) -> Path:
-    """Save ``figure`` as a PNG, atomically (no half-written file on failure)."""
-    return atomic_write(path, lambda file: figure.savefig(file, format="png", dpi=100))
-
-
-#: Characters a line of a figure's title holds at most before it wraps.
-TITLE_WIDTH = 80
-#: The share of a figure's width a wrapped title may take: the axes it is centred on sit
-#: a little off the figure's centre (the y label is on their left).
-TITLE_SHARE = 0.85
-
-
-def _set_wrapped_title(ax: Axes, title: str) -> None:
-    """Set ``ax``'s title wrapped into lines that fit the figure's width (measured with the
-    figure's renderer; at spaces, and inside a word only where one line cannot hold it),
-    so that no part of it is cut off."""
-    figure = ax.get_figure()
-    renderer = figure.canvas.get_renderer()
-    room = figure.bbox.width * TITLE_SHARE
-    for width in range(TITLE_WIDTH, 9, -4):
-        ax.set_title(textwrap.fill(title, width))
-        if ax.title.get_window_extent(renderer).width <= room:
-            return
-
-
-def throughput_figure(
-    deliveries: np.ndarray, title: str = "", window: int = 32, unit: str = "step"
-) -> Figure:
-    """Deliveries at each step (``unit``: each tick of a run on ticks) of a lifelong run,
-    and their rolling mean over ``window`` of them: the throughput over time
-    [deliveries/step]. The whole title shows, wrapped to the figure's width, and the
-    legend stands under the axes, off the data."""
-    deliveries = np.asarray(deliveries, dtype=np.float64)
-    figure = _figure((7, 3.6))
-    ax = figure.add_subplot()
-    steps = np.arange(1, len(deliveries) + 1)
-    ax.plot(steps, deliveries, color="#bbbbbb", linewidth=0.8, label=f"deliveries at the {unit}")
-    ax.plot(steps, rolling_mean(deliveries, window), color="#0072B2", linewidth=2,
-            label=f"mean of the last {window} {unit}s")  # fmt: skip
-    mean = deliveries.mean() if len(deliveries) else 0.0
-    digits = 2 if unit == "step" else 3  # a tick delivers a tenth of a step's
-    ax.axhline(mean, color="#D55E00", linestyle="--", linewidth=1,
-               label=f"throughput {mean:.{digits}f} deliveries/{unit}")  # fmt: skip
-    ax.set_xlabel(unit)
-    ax.set_ylabel("deliveries")
-    # Outside the axes: inside, any corner covers the lines on some floor (a run that
-    # delivers nothing draws them along the bottom, a busy one along the top).
-    figure.legend(loc="outside lower center", ncols=3, fontsize="small", frameon=False)
-    _set_wrapped_title(ax, title or "Throughput over time")
-    return figure
-
-
-def congestion_figure(grid: WarehouseGrid, waits: np.ndarray, title: str = "") -> Figure:
-    """Where robots waited: a heatmap of the waits counted on each cell (shelves grey)."""
-    waits = np.asarray(waits, dtype=np.float64).reshape(grid.rows, grid.cols)
-    shown = np.ma.masked_array(waits, mask=~_free_mask(grid))
-    aspect = grid.cols / grid.rows
-    # The map's own shape, at most 12 inches wide or tall, plus room for the title and
-    # the colour bar: a 500 x 140 floor gets a wide, low figure, not blank bands.
-    width, height = (12.0, 12.0 / aspect) if aspect >= 1 else (12.0 * aspect, 12.0)
-    scale = min(1.0, 8.0 / height) if aspect >= 1 else 8.0 / height
-    figure = _figure((max(4.0, width * scale) + 1.5, max(2.0, height * scale) + 0.8))
-    ax = figure.add_subplot()
-    ax.set_facecolor("#808080")
-    image = ax.imshow(shown, cmap="magma_r", interpolation="nearest")
-    figure.colorbar(image, ax=ax, label="waits on the cell", shrink=min(1.0, 0.4 + 0.6 / aspect))
-    ax.set_xticks([])
-    ax.set_yticks([])
-    ax.set_title(title or f"Congestion: {int(waits.sum()):,} waits")
-    return figure
-
-
-def throughput_by_robots_figure(
-    throughput: Mapping[int, float], published: Mapping[str, float] | None = None, title: str = ""
-) -> Figure:
-    """Throughput [deliveries/step] against the number of robots, with ``published``
-    figures (name to value) drawn as dashed lines for comparison."""
-    figure = _figure((6, 3))
-    ax = figure.add_subplot()
-    robots = sorted(throughput)
-    ax.plot(robots, [throughput[n] for n in robots], "o-", color="#0072B2", label="measured")
-    palette = ("#D55E00", "#009E73", "#CC79A7", "#E69F00")
-    for i, (name, value) in enumerate((published or {}).items()):
-        ax.axhline(value, color=palette[i % len(palette)], linestyle="--", linewidth=1, label=name)
-    ax.set_xlabel("robots")
-    ax.set_ylabel("deliveries per step")
-    ax.set_title(title or "Throughput against fleet size")
-    ax.legend(fontsize="small")
-    return figure
-
-
-#: Names the planners go by in figures.
-PLANNER_LABELS = {"pibt": "PIBT", "guided": "guided PIBT"}
-
-
-def planner_scaling_figure(scaling: Mapping[str, object] | str | os.PathLike[str]) -> Figure:
-    """Errands a step against robots, each planner's (over the whole run, dotted, and its
-    last half) beside the congestion-free ceiling (robots over the mean shortest distance
-    between consecutive errands, dashed): ``benchmarks/planners.py --scaling``'s results,
-    given as its ``"scaling"`` mapping or as the path of the JSON file it wrote.
-
-    Raises:
-        ValueError: if the file holds no scaling runs.
-    """
-    if not isinstance(scaling, Mapping):
-        scaling = json.loads(Path(scaling).read_text(encoding="utf-8")).get("scaling")
-        if not scaling:
-            raise ValueError("the file holds no scaling runs (benchmarks/planners.py --scaling)")
-    rows = list(scaling["rows"])
-    robots = sorted({row["robots"] for row in rows})
-    ceiling = {row["robots"]: row["ceiling"] for row in rows if row.get("ceiling") is not None}
-    figure = _figure((6.4, 4.2))
-    ax = figure.add_subplot()
-    ax.plot([n for n in robots if n in ceiling], [ceiling[n] for n in robots if n in ceiling],
-            "k--", marker="o", label="congestion-free ceiling")  # fmt: skip
-    for name in dict.fromkeys(row["planner"] for row in rows):
-        mine = sorted((row for row in rows if row["planner"] == name), key=lambda r: r["robots"])
-        label = PLANNER_LABELS.get(name, name)
-        sizes = [row["robots"] for row in mine]
-        (line,) = ax.plot(sizes, [row["errands_per_step_last_half"] for row in mine],
-                          marker="o", label=f"{label} (last half)")  # fmt: skip
-        ax.plot(sizes, [row["errands_per_step"] for row in mine], marker=".", linestyle=":",
-                color=line.get_color(), label=f"{label} (whole run)")  # fmt: skip
-    ax.set_xlabel("robots")
-    ax.set_ylabel("errands a step")
-    ax.set_title(f"{scaling['layout']}, lifelong, {scaling['steps']} steps, seed 0")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    return figure
+__all__ = [
+    "PLANNER_LABELS",
+    "ROLLING_WINDOW",
+    "TITLE_SHARE",
+    "TITLE_WIDTH",
+    "congestion_figure",
+    "fleet_delay_figure",
+    "fleet_gap_figure",
+    "frame_strips_figure",
+    "learning_curve_figure",
+    "learning_curves_figure",
+    "path_figure",
+    "planner_scaling_figure",
+    "policy_figure",
+    "rolling_mean",
+    "save_figure",
+    "snap_error_figure",
+    "speed_profile_figure",
+    "sweep_figure",
+    "throughput_by_robots_figure",
+    "throughput_figure",
+]

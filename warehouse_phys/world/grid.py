@@ -5,14 +5,15 @@ physics-backed environment cannot drift apart. This module imports neither
 gymnasium, pymunk nor pygame: only numpy (for the random generator type and the
 floor's masks) and, for a floor drawn as text, scipy's region labelling.
 
-A floor is held as arrays (a byte or so a cell; see :data:`MAX_SIDE`): boolean masks of
+A floor is held as arrays (a byte or so a cell; see
+:data:`~warehouse_phys.world.layout_text.MAX_SIDE`): boolean masks of
 its free, shelf and reachable cells and the indices of its package cells.
 :attr:`WarehouseGrid.shelves`, :attr:`~WarehouseGrid.reachable` and
 :attr:`~WarehouseGrid.target_cells` are read-only views of them that behave as the
 frozensets and the tuple of :class:`Cell` they once were.
 
-Its length is the world model itself, the one source of truth for every twin: split
-it and the rules would have two homes.
+A floor drawn as text is read by :mod:`warehouse_phys.world.layout_text`, which also
+holds the size a floor may have; its names still import from here.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from __future__ import annotations
 import array
 import functools
 import itertools
-import re
 from collections.abc import Iterator, Sequence
 from enum import IntEnum
 from typing import Any
@@ -28,6 +28,24 @@ from typing import Any
 import numpy as np
 
 from warehouse_phys.world.cells import Cell, CellSequence, CellSet, read_only
+
+# A floor drawn as text and the size limits live in layout_text; re-exported here, where
+# they lived first (see __all__).
+from warehouse_phys.world.layout_text import (
+    FLOOR,
+    LAYOUT_SYMBOLS,
+    LISTED_CELLS,
+    MAX_SIDE,
+    MIN_SIDE,
+    PACKAGE,
+    SHELF,
+    START,
+    cell_list,
+    check_size,
+    checked_layout,
+    package_cells,
+    unmarked_start,
+)
 
 
 class Action(IntEnum):
@@ -56,26 +74,10 @@ START_CELL = Cell(0, 0)
 #: Reward for standing on the target; every other step earns nothing.
 TARGET_REWARD = 1.0
 
-#: Fewest rows and columns of a floor [cells]: the target sits outside row 0 and column 0.
-MIN_SIDE = 2
-#: Most rows and columns of a floor [cells]: the largest maps of the League of Robot
-#: Runners (1,912 x 1,800) fit. The world model keeps about 17 bytes a cell (three masks
-#: and a row of bytes for moves, a byte each, 8 bytes per package cell and the layout's
-#: text), so a 2,048 x 2,048 floor builds in about 0.1 s and holds about 70 MB.
-MAX_SIDE = 2048
 
 #: Distance maps kept for :meth:`WarehouseGrid.optimal_steps`, counted in cells
 #: (4 bytes each): about 8 MB, whatever the floor.
 DISTANCE_CACHE_CELLS = 2**21
-
-#: The symbols of a layout's text, one character per cell.
-FLOOR, SHELF, PACKAGE, START = ".", "#", "P", "S"
-LAYOUT_SYMBOLS = {
-    FLOOR: "floor",
-    SHELF: "shelf",
-    PACKAGE: "floor where packages may appear",
-    START: "a robot's start (floor); the first is the single robot's, a fleet uses all",
-}
 
 
 class WarehouseGrid:
@@ -152,7 +154,7 @@ class WarehouseGrid:
         """
         from scipy.ndimage import label  # imported here: an empty floor needs no regions
 
-        rows, symbols = _checked_layout(layout)
+        rows, symbols = checked_layout(layout)
         width = len(rows[0])
         free = symbols != ord(SHELF)
         # Regions of free cells connected by moves (4-connected), numbered in reading order.
@@ -161,19 +163,19 @@ class WarehouseGrid:
         if marked.size:
             start = Cell(*divmod(int(marked[0]), width))
         else:
-            start = _unmarked_start(symbols, regions, count)
+            start = unmarked_start(symbols, regions, count)
         grid = cls.__new__(cls)
         grid._setup(free, regions == regions[start], start, layout=tuple(rows))
         del regions  # 4 bytes a cell: gone before the package cells are found
         stranded = marked[~grid.reachable_mask.flat[marked]]
         if stranded.size:
             raise ValueError(
-                f"start cells {_cell_list(CellSequence(stranded, len(rows), width))} cannot be "
+                f"start cells {cell_list(CellSequence(stranded, len(rows), width))} cannot be "
                 f"reached from the start {tuple(start)}"
             )
         grid.starts = tuple(Cell(*divmod(i, width)) for i in marked.tolist()) or (start,)
         grid.starts_marked = bool(marked.size)
-        grid._set_targets(_package_cells(grid, symbols))
+        grid._set_targets(package_cells(grid, symbols))
         return grid
 
     def _setup(
@@ -427,122 +429,6 @@ def move_table(grid: WarehouseGrid) -> list[list[tuple[Cell, ...]]] | None:
     return _move_table((grid.rows, grid.cols, grid.layout))
 
 
-#: Most cells an error message lists; the rest are counted.
-LISTED_CELLS = 5
-
-#: Any character that is no layout symbol.
-_UNKNOWN_SYMBOL = re.compile(f"[^{re.escape(''.join(LAYOUT_SYMBOLS))}]")
-
-
-def _checked_layout(layout: Sequence[str]) -> tuple[list[str], np.ndarray]:
-    """The rows of ``layout`` and its symbols as a ``(rows, cols)`` uint8 array of their
-    ASCII codes, or the ``TypeError``/``ValueError`` of :meth:`WarehouseGrid.from_layout`
-    naming what is wrong and where (checked a whole row or floor at a time, not per cell)."""
-    if isinstance(layout, str) or not isinstance(layout, Sequence):
-        raise TypeError(f"a layout is a list of strings, one per row, got {type(layout).__name__}")
-    rows = list(layout)
-    if not rows or not all(isinstance(row, str) for row in rows):
-        raise TypeError("a layout is a non-empty list of strings, one per row")
-    width = len(rows[0])
-    if width == 0:
-        raise ValueError("layout row 0 is empty")
-    if len(rows) > MAX_SIDE or width > MAX_SIDE:
-        raise ValueError(
-            f"the layout has {len(rows)} rows of {width} cells: the largest floor is "
-            f"{MAX_SIDE} x {MAX_SIDE} cells"
-        )
-    uneven = next((r for r, row in enumerate(rows) if len(row) != width), len(rows))
-    # Rows are read in order, so an unknown symbol above the first uneven row comes first.
-    unknown = _UNKNOWN_SYMBOL.search("".join(rows[:uneven]))
-    if unknown:
-        r, c = divmod(unknown.start(), width)
-        known = ", ".join(f"{k!r} {v}" for k, v in LAYOUT_SYMBOLS.items())
-        raise ValueError(
-            f"unknown layout symbol {unknown.group()!r} at row {r}, column {c}; known: {known}"
-        )
-    if uneven < len(rows):
-        raise ValueError(
-            f"layout rows must all have the same length: row {uneven} has "
-            f"{len(rows[uneven])} cells, row 0 has {width}"
-        )
-    # Every symbol is ASCII now, so one byte is one cell.
-    symbols = np.frombuffer("".join(rows).encode("ascii"), dtype=np.uint8)
-    return rows, symbols.reshape(len(rows), width)
-
-
-def _package_cells(grid: WarehouseGrid, symbols: np.ndarray) -> np.ndarray:
-    """The indices of the cells of a layout's floor where packages may appear: its ``P``
-    cells off the starts, or every cell the robot reaches off the starts; refused if
-    there are none."""
-    marked = symbols == ord(PACKAGE)
-    starts = np.zeros(symbols.shape, dtype=bool)
-    starts[tuple(np.array(grid.starts).T)] = True
-    if marked.any():
-        unreachable = np.flatnonzero(marked & ~grid.reachable_mask)
-        if unreachable.size:
-            cells = CellSequence(unreachable, grid.rows, grid.cols)
-            raise ValueError(
-                f"package cells {_cell_list(cells)} cannot be reached from the start "
-                f"{tuple(grid.start)}"
-            )
-        targets = np.flatnonzero(marked & ~starts)
-    else:
-        targets = np.flatnonzero(grid.reachable_mask & ~starts)
-    if not targets.size:
-        raise ValueError(
-            f"the layout leaves no cell for the package: no floor other than the start "
-            f"{tuple(grid.start)} can be reached"
-        )
-    return targets
-
-
-def _cell_list(cells: Sequence[tuple[int, int]]) -> str:
-    """``cells`` as a list for an error message: the first :data:`LISTED_CELLS`, then how
-    many there are in all, so that a message stays one short line on any floor."""
-    shown = ", ".join(str(tuple(cell)) for cell in cells[:LISTED_CELLS])
-    more = f", ... ({len(cells)} in all)" if len(cells) > LISTED_CELLS else ""
-    return f"[{shown}{more}]"
-
-
-def _unmarked_start(symbols: np.ndarray, regions: np.ndarray, count: int) -> Cell:
-    """The start of a layout that marks none: the first cell, in reading order, of the
-    largest region of free cells connected by moves (the first such region on a tie).
-    When the layout marks package cells, only the regions holding one compete, and the
-    start is the region's first cell that is not a package cell (if it has one).
-    ``regions`` numbers the regions in reading order, 1 to ``count`` (0 on shelves)."""
-    if count == 0:
-        raise ValueError("the layout has no floor: every cell is a shelf")
-    sizes = np.bincount(regions.ravel(), minlength=count + 1)
-    packages = symbols == ord(PACKAGE)
-    candidates = np.unique(regions[packages]) if packages.any() else np.arange(1, count + 1)
-    chosen = candidates[int(sizes[candidates].argmax())]  # ascending: the first on a tie
-    region = regions.ravel() == chosen
-    plain = region & ~packages.ravel()
-    first = int(np.flatnonzero(plain if plain.any() else region)[0])
-    return Cell(*divmod(first, symbols.shape[1]))
-
-
-def check_size(name: str, value: object) -> int:
-    """``value`` as a number of rows or columns, or a ``TypeError``/``ValueError`` naming ``name``.
-
-    A floor has at least :data:`MIN_SIDE` rows and columns (the target is placed
-    outside row 0 and column 0) and at most :data:`MAX_SIDE`.
-    """
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
-    if value < MIN_SIDE:
-        raise ValueError(
-            f"{name} must be at least {MIN_SIDE}, got {value}: the target is placed in rows "
-            "1..R-1 and columns 1..C-1, so a grid needs at least 2 rows and 2 columns"
-        )
-    if value > MAX_SIDE:
-        raise ValueError(
-            f"{name} must be at most {MAX_SIDE}, got {value}: the largest floor is "
-            f"{MAX_SIDE} x {MAX_SIDE} cells"
-        )
-    return int(value)
-
-
 def refuse_durations(**arguments: object) -> None:
     """Refuse a ``numpy.timedelta64`` given as a count, which numpy counts as an integer.
 
@@ -552,3 +438,29 @@ def refuse_durations(**arguments: object) -> None:
     for name, value in arguments.items():
         if isinstance(value, np.timedelta64):
             raise TypeError(f"{name} must be an integer, got {value!r} (timedelta64)")
+
+
+__all__ = [
+    "ACTION_DELTAS",
+    "DEFAULT_COLS",
+    "DEFAULT_ROWS",
+    "DISTANCE_CACHE_CELLS",
+    "FLOOR",
+    "LAYOUT_SYMBOLS",
+    "LISTED_CELLS",
+    "MAX_SIDE",
+    "MIN_SIDE",
+    "MOVE_TABLE_CELLS",
+    "PACKAGE",
+    "SHELF",
+    "START",
+    "START_CELL",
+    "TARGET_REWARD",
+    "Action",
+    "Cell",
+    "WarehouseGrid",
+    "check_size",
+    "move_table",
+    "refuse_durations",
+    "step_reward",
+]

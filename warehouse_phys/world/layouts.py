@@ -31,14 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from warehouse_phys.files.atomic import atomic_write_text
-from warehouse_phys.world.grid import (
-    DEFAULT_COLS,
-    DEFAULT_ROWS,
-    MAX_SIDE,
-    WarehouseGrid,
-    check_size,
-    refuse_durations,
-)
+from warehouse_phys.world.grid import DEFAULT_COLS, DEFAULT_ROWS, WarehouseGrid, refuse_durations
+from warehouse_phys.world.layout_text import MAX_SIDE, check_size
 
 
 @dataclass(frozen=True)

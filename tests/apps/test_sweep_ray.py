@@ -1,0 +1,97 @@
+"""The sweep on Ray: the trainable, workers that find the environments, an address
+where nothing answers, and SIGTERM shutting down the Ray the sweep started."""
+
+import json
+import os
+import signal
+import time
+
+import pytest
+
+from warehouse_phys import sweep as sweep_cli
+from warehouse_phys.apps import sweep_ray, sweep_resume, sweep_trials
+from warehouse_phys.apps.interrupts import Terminated
+
+
+def test_a_trial_writes_the_same_run_folder_as_the_trainer(tmp_path):
+    args = sweep_cli.build_parser().parse_args(["--seeds", "1", "--episodes", "80"])
+    (trial,) = sweep_trials.trials_from_args(args)
+    measures = sweep_ray.run_trial(trial.to_job(tmp_path, gif=False))
+    folder = tmp_path / trial.folder
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["config"] == {"episodes": 80, "alpha": 0.9, "gamma": 0.9, "seed": 0}
+    assert measures["training_episodes"] == 80
+    assert measures["optimal"] == summary["evaluation"]["optimal"]
+    assert sweep_resume.finished_row(trial, tmp_path)["status"] == "done"
+
+
+SPAWN_SNIPPET = """
+import gymnasium as gym
+import numpy as np
+
+# Ids in "warehouse_phys:" form register the package inside each spawned worker.
+envs = gym.vector.AsyncVectorEnv(
+    [lambda: gym.make("warehouse_phys:warehouse-robot-v0") for _ in range(2)], context="spawn"
+)
+obs, infos = envs.reset(seed=0)
+obs, rewards, terminations, truncations, infos = envs.step(np.array([2, 1]))
+envs.close()
+print(obs.shape)
+"""
+
+
+@pytest.mark.slow
+def test_spawned_workers_find_the_environments_by_their_module_ids(run_python):
+    # Started with -c: no script file, as from a notebook or a REPL.
+    assert run_python(SPAWN_SNIPPET, timeout=120).strip() == "(2, 4)"
+
+
+# ------------------------------------------------- nothing hangs, nothing is left
+def test_an_address_where_nothing_listens_fails_within_seconds(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    started = time.monotonic()
+    assert sweep_cli.main(["--seeds", "1", "--address", "127.0.0.1:1"]) == 1
+    assert time.monotonic() - started < 10
+    assert capsys.readouterr().err == (
+        "python -m warehouse_phys.sweep: error: --address 127.0.0.1:1: no Ray cluster answers: "
+        "Connection refused\n"
+    )
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_no_cluster_at_auto_is_one_line_and_leaves_no_folder(tmp_path, monkeypatch, capsys):
+    import ray
+
+    message = "Could not find any running Ray instance. Please specify the one to connect to."
+
+    def no_cluster(**kwargs):
+        raise ConnectionError(message)
+
+    monkeypatch.setattr(ray, "init", no_cluster)
+    out = tmp_path / "sweep"
+    assert sweep_cli.main(["--seeds", "1", "--address", "auto", "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err == f"python -m warehouse_phys.sweep: error: --address auto: {message}\n"
+    assert not out.exists()
+
+
+def test_sigterm_shuts_down_the_ray_it_started(monkeypatch):
+    import ray
+
+    calls = []
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    monkeypatch.setattr(ray, "init", lambda **kwargs: calls.append("init"))
+    monkeypatch.setattr(ray, "shutdown", lambda: calls.append("shutdown"))
+    before = signal.getsignal(signal.SIGTERM)
+
+    def sweep_killed():
+        with sweep_ray.ray_session(None, 1):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)  # interrupted at once
+
+    started = time.monotonic()
+    with pytest.raises(Terminated):
+        sweep_killed()
+    assert time.monotonic() - started < 4
+    assert calls == ["init", "shutdown"]
+    assert signal.getsignal(signal.SIGTERM) == before

@@ -1,0 +1,234 @@
+"""Resuming a sweep: finished trials, the folder check, the locks of the driver and of
+the trials, lingering workers of a killed driver."""
+
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+from tests.apps.test_sweep import read_rows, run_sweep
+from warehouse_phys import sweep as sweep_cli
+from warehouse_phys.apps import sweep_ray, sweep_resume, sweep_trials
+from warehouse_phys.files.runfolder import RunFolderError
+from warehouse_phys.rl.qlearning import load_q_table
+
+
+def test_a_folder_of_other_files_is_refused(tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep")
+    (out / "runs").mkdir()
+    assert sweep_cli.main(["--seeds", "1", "--out", str(out)]) == 2
+    assert capsys.readouterr().err == (
+        f"python -m warehouse_phys.sweep: error: --out {out} holds files that are not a "
+        "sweep's (notes.txt); choose a new or empty folder, or an earlier sweep's folder to "
+        "resume it\n"
+    )
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "runs"]
+    (out / "notes.txt").unlink()
+    (out / ".results.csv.x1y2.tmp").write_text("")  # a killed sweep's half-written table
+    sweep_resume.check_sweep_folder(out)  # an earlier sweep's folder: resumed
+
+
+# ---------------------------------------------------------------------- issue 32: resume, lingering
+def tune_in_process(jobs, sweep_dir, **options):
+    """``run_on_tune`` without Ray: every job in this process, its error kept as Tune keeps it."""
+    outcomes = {}
+    for job in jobs:
+        try:
+            outcomes[job["name"]] = sweep_ray.run_trial(job)
+        except Exception as error:
+            outcomes[job["name"]] = error
+    return outcomes
+
+
+def finished_sweep(tmp_path, monkeypatch, capsys):
+    """A two-trial sweep run in this process: its folder and the trials."""
+    monkeypatch.setattr(sweep_cli, "run_on_tune", tune_in_process)
+    out = tmp_path / "sweep"
+    argv = ["--seeds", "2", "--episodes", "60", "--out", str(out)]
+    assert sweep_cli.main(argv) == 0, capsys.readouterr().err
+    assert "2 trials in" in capsys.readouterr().out
+    trials = sweep_trials.trials_from_args(sweep_cli.build_parser().parse_args(argv))
+    return out, argv, trials
+
+
+def test_a_truncated_or_foreign_table_is_trained_again_on_resume(tmp_path, monkeypatch, capsys):
+    out, argv, trials = finished_sweep(tmp_path, monkeypatch, capsys)
+    assert all(sweep_resume.finished_row(trial, out) for trial in trials)
+    table = out / trials[1].folder / "qtable.npz"
+    data = table.read_bytes()
+    table.write_bytes(data[: len(data) // 2])  # the summary still says done
+    assert sweep_resume.finished_row(trials[1], out) is None
+    assert sweep_resume.finished_row(trials[0], out)["status"] == "done"
+
+    assert sweep_cli.main(argv) == 0
+    assert f"2 trials in {out}: 1 already finished, 1 to run" in capsys.readouterr().out
+    _, metadata = load_q_table(table)
+    assert metadata["seed"] == 1
+    # Seed 0's table in seed 1's folder: it loads, but is not this trial's run.
+    table.write_bytes((out / trials[0].folder / "qtable.npz").read_bytes())
+    assert sweep_resume.finished_row(trials[1], out) is None
+
+
+def test_a_sweep_folder_in_use_by_a_live_sweep_is_refused_naming_its_pid(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    out.mkdir()
+    handle, token = sweep_resume.take_sweep_lock(out)  # a live driver: this process
+    try:
+        assert token.split()[0] == str(os.getpid())
+        assert sweep_cli.main(["--seeds", "1", "--out", str(out)]) == 2
+        assert capsys.readouterr().err == (
+            f"python -m warehouse_phys.sweep: error: --out {out} is in use by the sweep of "
+            f"process {os.getpid()}; wait for it to end or choose another folder\n"
+        )
+        assert sorted(p.name for p in out.iterdir()) == ["sweep.lock"]
+    finally:
+        os.close(handle)
+
+
+def test_a_killed_drivers_lock_is_taken_over_with_a_new_token(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "sweep"
+    out.mkdir()
+    (out / "sweep.lock").write_text("4194304 0123456789abcdef\n")  # no process holds it
+    monkeypatch.setattr(sweep_cli, "run_on_tune", tune_in_process)
+    assert sweep_cli.main(["--seeds", "1", "--episodes", "30", "--out", str(out)]) == 0
+    pid, token = (out / "sweep.lock").read_text().split()
+    assert pid == str(os.getpid())
+    assert len(token) == 32
+    sweep_resume.check_sweep_folder(out)  # the lock is one of the sweep's own files
+
+
+def test_a_lingering_worker_of_an_earlier_run_touches_nothing(tmp_path, monkeypatch, capsys):
+    out, _, trials = finished_sweep(tmp_path, monkeypatch, capsys)
+    folder = out / trials[0].folder
+    before = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+    old_job = trials[0].to_job(out, gif=False, run="1 earlier-run")  # not the lock's token
+    with pytest.raises(sweep_resume.SupersededError, match=r"a newer run .* owns the folder"):
+        sweep_ray.run_trial(old_job)
+    assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == before
+    # A trial of the current run, the token in the lock file, trains as ever.
+    current = (out / "sweep.lock").read_text().strip()
+    assert sweep_ray.run_trial(trials[0].to_job(out, gif=False, run=current))["optimal"] >= 0
+
+
+def hold_folder(folder):
+    """Lock ``folder`` as a run writing it does; returns the handle that releases it."""
+    import fcntl
+
+    handle = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return handle
+
+
+def held(folder):
+    """Whether a process holds ``folder``'s lock (a run writing it)."""
+    import fcntl
+
+    handle = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(handle)
+    return False
+
+
+def test_a_folder_held_by_a_lingering_worker_is_not_finished_and_is_waited_for(
+    tmp_path, monkeypatch, capsys
+):
+    import threading
+
+    out, _, trials = finished_sweep(tmp_path, monkeypatch, capsys)
+    folder = out / trials[0].folder
+    handle = hold_folder(folder)
+    try:
+        assert sweep_resume.finished_row(trials[0], out) is None  # it may be half-written
+        monkeypatch.setattr(sweep_resume, "FOLDER_WAIT", 0.2)
+        with pytest.raises(RunFolderError, match="in use by another run"):
+            sweep_ray.run_trial(trials[0].to_job(out, gif=False))
+        monkeypatch.setattr(sweep_resume, "FOLDER_WAIT", 60.0)
+        results = []
+        worker = threading.Thread(
+            target=lambda: results.append(sweep_ray.run_trial(trials[0].to_job(out, gif=False)))
+        )
+        worker.start()
+        time.sleep(1.0)
+        assert worker.is_alive()  # waiting for the folder
+        assert not results
+    finally:
+        os.close(handle)
+    worker.join(60)
+    assert [r["training_episodes"] for r in results] == [60]
+    assert sweep_resume.finished_row(trials[0], out)["status"] == "done"
+
+
+#: Loaded by every Python process of the killed sweep, its Ray workers included: a trial
+#: there stalls with its folder locked, and a process of its own keeps the folder's lock
+#: for 20 s (a worker that Ray is slow to end, as under load).
+STALL_TRIALS = """
+import importlib.util
+import subprocess
+import sys
+import time
+
+
+class StallTrials:
+    def find_spec(self, name, path=None, target=None):
+        if name != "warehouse_phys.apps.runs":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        run_module = spec.loader.exec_module
+
+        def exec_module(module):
+            run_module(module)
+
+            def train_run(folder, *args, **kwargs):
+                # Detached ("&"): Ray ends a worker's children with it, not this one.
+                subprocess.Popen(["sh", "-c", "sleep 20 &"], pass_fds=[folder._handle])
+                time.sleep(600)
+
+            module.train_run = train_run
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+
+sys.meta_path.insert(0, StallTrials())
+"""
+
+
+@pytest.mark.slow
+def test_a_sweep_run_again_at_once_after_its_driver_is_killed_succeeds(tmp_path):
+    # A worker of the killed driver lingers, the trial's folder locked, while the new run
+    # starts: the new run's worker waits for the folder (it failed "in use" before).
+    hook = tmp_path / "hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(STALL_TRIALS)
+    out = tmp_path / "sweep"
+    argv = ["--seeds", "1", "--episodes", "60", "--out", str(out), "--quiet"]
+    folder = out / "runs/grid-default-a0.9-g0.9-e60-seed0"
+    driver = subprocess.Popen(
+        [sys.executable, "-m", "warehouse_phys.apps.sweep", *argv], cwd=tmp_path,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), *sys.path])},
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while not (folder.is_dir() and held(folder)):
+            assert driver.poll() is None, "the sweep ended before its trial started"
+            assert time.monotonic() < deadline, "the trial never started"
+            time.sleep(0.1)
+    finally:
+        driver.kill()  # SIGKILL: Ray is not shut down
+        driver.wait()
+    again = run_sweep(*argv, cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert [row["status"] for row in read_rows(out)] == ["done"]
+    _, metadata = load_q_table(folder / "qtable.npz")
+    assert metadata["episodes"] == 60
+    assert (out / "sweep.lock").read_text().split()[0] != str(driver.pid)

@@ -1,0 +1,18 @@
+"""The guidance's configuration refuses every value out of its range."""
+
+import pytest
+
+from warehouse_phys.planners.guidance_config import MAX_LANE_PATHS, GuidanceConfig
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [{"vertex_weight": -1}, {"heuristic_weight": 0.5}, {"window": 0}, {"max_searches": -1},
+     {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}, {"first_time_limit": -1},
+     {"turn_traffic_weight": -0.5}, {"turn_contraflow_weight": -1.0},
+     {"turn_lane_paths": -1}, {"turn_lane_paths": MAX_LANE_PATHS + 1},
+     {"turn_lane_paths": 1.5}, {"turn_lane_paths": True}],
+)  # fmt: skip
+def test_nonsense_guidance_is_refused(bad):
+    with pytest.raises((ValueError, TypeError), match=next(iter(bad))):
+        GuidanceConfig(**bad)

@@ -1,0 +1,98 @@
+"""The guidance's configuration: how guide paths are priced, refreshed and bounded.
+
+:class:`GuidanceConfig` holds every knob of
+:class:`~warehouse_phys.planners.guidance.TrafficGuidance` (and so of
+:class:`~warehouse_phys.planners.guidance.GuidedPIBT` and of the guided planners by name,
+:mod:`warehouse_phys.rl.fleet_planners`), a field each with its unit, and refuses a value
+out of range when it is made. What each does to the guide paths is the guidance's module
+docstring (:mod:`warehouse_phys.planners.guidance`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Most phantom guide paths a lane may carry (``turn_lane_paths``); far fewer already
+#: price driving against a lane above any way round.
+MAX_LANE_PATHS = 1000
+
+
+@dataclass(frozen=True)
+class GuidanceConfig:
+    """How :class:`~warehouse_phys.planners.guidance.TrafficGuidance` prices and refreshes
+    guide paths, each field checked when the configuration is made.
+
+    Raises:
+        ValueError: for a weight, cost, count or bound out of its range.
+        TypeError: for a ``turn_lane_paths`` that is not an int.
+    """
+
+    #: Cost of a move per guide path leaving the cell it enters [moves].
+    vertex_weight: float = 0.5
+    #: Cost of a move per product of the paths along it (itself included) and against it.
+    contraflow_weight: float = 1.0
+    #: The A*'s heuristic is this times the Manhattan distance (1: the cheapest path).
+    heuristic_weight: float = 1.0
+    #: Cost of a quarter turn in a turning robot's guide path [moves] (None: its guide
+    #: path is searched as a four-direction robot's).
+    turn_cost: float | None = 1.0
+    #: A turn holds up the robots behind it: a quarter turn at a cell costs ``turn_cost``
+    #: times (1 + this times the guide paths leaving the cell; 0: ``turn_cost`` alone).
+    turn_traffic_weight: float = 0.5
+    #: ``contraflow_weight`` for a turning robot's guide path (None: the same): a turning
+    #: robot that meets another head-on must turn round (two turns) or wait, so paths
+    #: against the traffic cost it more.
+    turn_contraflow_weight: float | None = 4.0
+    #: One-way lanes for turning robots: phantom guide paths laid along the lane of every
+    #: cell of a one-cell-wide corridor (:func:`~warehouse_phys.planners.lanes.one_way_lanes`),
+    #: so that a guide path against a lane pays the contraflow of this many paths (0: no
+    #: lanes).
+    turn_lane_paths: int = 2
+    #: Whether robots follow their guide paths (else distances with a flow tie-break).
+    follow: bool = True
+    #: Robots whose guide path is searched anew each step besides those that need one.
+    refresh: int = 0
+    #: How many cells of its guide path ahead of a robot are looked at [cells].
+    window: int = 8
+    #: Whether a robot pushed aside or back, one move off its guide path, rejoins it
+    #: (else a new search; a robot beside a cell further along always rejoins).
+    rejoin: bool = False
+    #: Most guide-path searches in one step (None: no bound).
+    max_searches: int | None = None
+    #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
+    #: each: the robots left get PIBT's distances (and the run may differ between runs).
+    time_limit: float | None = None
+    #: The first step's own bound [s] (``math.inf``: none), when every robot needs its
+    #: first guide path (None: ``time_limit`` bounds it too). At 10,000 robots a step's
+    #: ``time_limit`` cannot hold the first step's 10,000 searches, and the robots it
+    #: leaves unguided become a backlog that later steps never clear.
+    first_time_limit: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("vertex_weight", "contraflow_weight", "turn_traffic_weight"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.turn_contraflow_weight is not None and not self.turn_contraflow_weight >= 0:
+            raise ValueError(
+                f"turn_contraflow_weight must be >= 0 or None, got {self.turn_contraflow_weight!r}"
+            )
+        lane_paths = self.turn_lane_paths
+        if isinstance(lane_paths, bool) or not isinstance(lane_paths, int | np.integer):
+            raise TypeError(f"turn_lane_paths must be an int, got {lane_paths!r}")
+        if not 0 <= lane_paths <= MAX_LANE_PATHS:
+            raise ValueError(f"turn_lane_paths must be in 0..{MAX_LANE_PATHS}, "
+                             f"got {lane_paths!r}")  # fmt: skip
+        if not self.heuristic_weight >= 1:
+            raise ValueError(f"heuristic_weight must be >= 1, got {self.heuristic_weight!r}")
+        if self.turn_cost is not None and not self.turn_cost >= 0:
+            raise ValueError(f"turn_cost must be >= 0 or None, got {self.turn_cost!r}")
+        if self.refresh < 0 or self.window < 1:
+            raise ValueError(f"refresh must be >= 0 and window >= 1, got {self!r}")
+        if self.max_searches is not None and self.max_searches < 0:
+            raise ValueError(f"max_searches must be >= 0 or None, got {self.max_searches!r}")
+        for name in ("time_limit", "first_time_limit"):
+            value = getattr(self, name)
+            if value is not None and not value >= 0:
+                raise ValueError(f"{name} must be >= 0 or None, got {value!r}")
