@@ -29,7 +29,12 @@ MAX_MODULE_LINES = 500
 
 
 def floor_modules() -> list:
-    return sorted(path for floor in FLOORS for path in (PACKAGE / floor).glob("*.py"))
+    """Every module of every floor, those of the floors' own subpackages included."""
+    return sorted(path for floor in FLOORS for path in (PACKAGE / floor).rglob("*.py"))
+
+
+def floor_of(path: Path) -> str:
+    return path.relative_to(PACKAGE).parts[0]
 
 
 def runtime_import_nodes(tree: ast.Module) -> list[ast.Import | ast.ImportFrom]:
@@ -69,9 +74,11 @@ def runtime_imports(tree: ast.Module) -> list[tuple[int, str]]:
     return [(line, name) for line, name in found if name.startswith("warehouse_phys.")]
 
 
-@pytest.mark.parametrize("path", floor_modules(), ids=lambda path: path.stem)
+@pytest.mark.parametrize(
+    "path", floor_modules(), ids=lambda path: str(path.relative_to(PACKAGE).with_suffix(""))
+)
 def test_every_module_imports_only_its_floor_and_those_below(path):
-    floor = path.parent.name
+    floor = floor_of(path)
     for line, name in runtime_imports(ast.parse(path.read_text())):
         parts = name.split(".")
         old = parts[1] in MOVED or parts[1] in OLD_PACKAGES
@@ -198,7 +205,7 @@ def test_every_module_over_500_lines_has_its_reason_in_the_architecture():
 
 @pytest.mark.parametrize("floor", PURE_FLOORS)
 def test_functions_of_the_pure_floors_are_short(floor):
-    for path in sorted((PACKAGE / floor).glob("*.py")):
+    for path in sorted((PACKAGE / floor).rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 continue
@@ -244,3 +251,16 @@ def test_python_dash_m_runs_every_app_by_its_old_name(app):
     )
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith(f"usage: python -m warehouse_phys.{app}")
+
+
+#: Most modules one package holds side by side (its __init__ and __main__ not counted).
+MAX_MODULES_SIDE_BY_SIDE = 12
+
+
+def test_no_package_holds_more_than_a_dozen_modules_side_by_side():
+    crowded = {}
+    for init in PACKAGE.rglob("__init__.py"):
+        modules = [p for p in init.parent.glob("*.py") if p.stem not in ("__init__", "__main__")]
+        if len(modules) > MAX_MODULES_SIDE_BY_SIDE:
+            crowded[str(init.parent.relative_to(ROOT))] = len(modules)
+    assert crowded == {}, f"packages that became halls again: {crowded}"

@@ -71,6 +71,9 @@ MOVED: dict[str, str] = {
     "recording": "viz.recording",
     "cli": "apps.cli",
     "runs": "apps.runs",
+    "apps.simulate_async": "apps.simulate.on_ticks",
+    "envs.fleet_actions": "envs.fleet.actions",
+    "envs.fleet_observations": "envs.fleet.observations",
     **{f"rules.{name}": home for name, home in RULES.items()},
 }
 

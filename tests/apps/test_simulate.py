@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from warehouse_phys.apps.simulate import main
-from warehouse_phys.apps.simulate_lockstep import simulate
+from warehouse_phys.apps.simulate.lockstep import simulate
 from warehouse_phys.drawing.map_frames import MAP_PACKAGE, MAP_ROBOT_COLOURS, fleet_map_frame
 from warehouse_phys.envs import fleet
 

@@ -9,7 +9,7 @@ import pytest
 
 from tests.envs.test_fleet_instances import small_instance
 from warehouse_phys.apps.simulate import main
-from warehouse_phys.apps.simulate_async import DEFAULT_DELAYS
+from warehouse_phys.apps.simulate.on_ticks import DEFAULT_DELAYS
 from warehouse_phys.execution.delays import DelayConfig, DelayGenerator
 from warehouse_phys.lorr.instances import read_instance, write_instance
 from warehouse_phys.lorr.output import GRID_LETTERS, replay

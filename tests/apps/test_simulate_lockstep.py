@@ -3,7 +3,7 @@
 import pytest
 
 from tests.apps.test_simulate import MAPS
-from warehouse_phys.apps.simulate_lockstep import simulate
+from warehouse_phys.apps.simulate.lockstep import simulate
 from warehouse_phys.envs import fleet
 from warehouse_phys.rl.fleet_evaluation import evaluate_fleet, shortest_path_policy
 

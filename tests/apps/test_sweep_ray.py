@@ -9,8 +9,10 @@ import time
 import pytest
 
 from warehouse_phys import sweep as sweep_cli
-from warehouse_phys.apps import sweep_ray, sweep_resume, sweep_trials
 from warehouse_phys.apps.interrupts import Terminated
+from warehouse_phys.apps.sweep import on_ray as sweep_ray
+from warehouse_phys.apps.sweep import resume as sweep_resume
+from warehouse_phys.apps.sweep import trials as sweep_trials
 
 
 def test_a_trial_writes_the_same_run_folder_as_the_trainer(tmp_path):

@@ -10,7 +10,9 @@ import pytest
 
 from tests.apps.test_sweep import read_rows, run_sweep
 from warehouse_phys import sweep as sweep_cli
-from warehouse_phys.apps import sweep_ray, sweep_resume, sweep_trials
+from warehouse_phys.apps.sweep import on_ray as sweep_ray
+from warehouse_phys.apps.sweep import resume as sweep_resume
+from warehouse_phys.apps.sweep import trials as sweep_trials
 from warehouse_phys.files.runfolder import RunFolderError
 from warehouse_phys.rl.qlearning import load_q_table
 

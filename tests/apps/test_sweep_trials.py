@@ -3,8 +3,8 @@
 import pytest
 
 from warehouse_phys import sweep as sweep_cli
-from warehouse_phys.apps import sweep_trials
 from warehouse_phys.apps.cli import UsageError
+from warehouse_phys.apps.sweep import trials as sweep_trials
 
 
 def test_the_grid_of_trials_is_every_combination_in_order():

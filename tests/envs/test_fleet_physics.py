@@ -17,7 +17,8 @@ with warnings.catch_warnings():
 
 from tests.envs.test_fleet import pettingzoo_quietly
 from tests.memory import CAN_MEASURE, growth_per_reset
-from warehouse_phys.envs import fleet, fleet_setup
+from warehouse_phys.envs import fleet
+from warehouse_phys.envs.fleet import setup as fleet_setup
 from warehouse_phys.physics import (
     COLLISION_SLOP,
     SNAP_ERROR_BOUND,

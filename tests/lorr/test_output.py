@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tests.envs.test_fleet_instances import small_instance
-from warehouse_phys.apps.simulate_lockstep import simulate
+from warehouse_phys.apps.simulate.lockstep import simulate
 from warehouse_phys.envs import fleet
 from warehouse_phys.lorr.output import (
     GRID_LETTERS,
@@ -94,7 +94,7 @@ def test_a_refused_move_is_an_error_and_the_taken_action_a_wait():
 def test_a_run_on_ticks_writes_its_ticks_and_delays_and_replays_tick_by_tick(tmp_path):
     """One letter a tick, a move's on the tick it ends: the replay ends where the executor's
     robots stand, without a conflict; agentMaxCounter and delayIntervals follow teamSize."""
-    from warehouse_phys.apps.simulate_async import simulate_ticks
+    from warehouse_phys.apps.simulate.on_ticks import simulate_ticks
     from warehouse_phys.envs import async_fleet
     from warehouse_phys.execution.delays import DelayConfig
 

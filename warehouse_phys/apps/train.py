@@ -69,7 +69,7 @@ from warehouse_phys.apps.runs import (
 )
 from warehouse_phys.apps.train_eval import evaluate_saved, refuse_training_options, watch
 from warehouse_phys.drawing.display import NoDisplayError, check_display
-from warehouse_phys.envs.fleet_setup import MAX_PHYSICS_ROBOTS
+from warehouse_phys.envs.fleet.setup import MAX_PHYSICS_ROBOTS
 from warehouse_phys.files.runfolder import RunFolder, RunFolderError, RunWriteError
 from warehouse_phys.rl.fleet_evaluation import compare_policies
 from warehouse_phys.rl.greedy_policy import Evaluation

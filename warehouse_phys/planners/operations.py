@@ -11,14 +11,15 @@ once a quarter turn straight back is left out), after Yukhnevich and Andreychuk'
   of the operations' depths (and every move between two cells) is reserved by at most
   one robot. A robot begins a step holding the rest of its last operation followed by a
   wait (all waits on the first step, or when some robot did not do what was planned).
-- Robots plan in decreasing priority (:func:`~warehouse_phys.planners.priorities.grow_priorities`,
-  PIBT's own). A robot tries its operations best first (:meth:`OperationPIBT.plan`): one
-  that meets no other robot's reservations is taken; one that meets exactly one robot of
-  lower priority than the robot that began the chain takes that robot's place, and the
-  robot put out plans again (priority inheritance); if it finds nothing, the robot that
-  put it out gives its place back and tries its next operation. A robot is placed at
-  most ``revisits`` times a step, and one chain puts robots out at most ``max_kicks``
-  times; a robot whose turn comes unplaced plans in it.
+- Robots plan in decreasing priority
+  (:func:`~warehouse_phys.planners.pibt.priorities.grow_priorities`, PIBT's own). A
+  robot tries its operations best first (:meth:`OperationPIBT.plan`): one that meets no
+  other robot's reservations is taken; one that meets exactly one robot of lower
+  priority than the robot that began the chain takes that robot's place, and the robot
+  put out plans again (priority inheritance); if it finds nothing, the robot that put it
+  out gives its place back and tries its next operation. A robot is placed at most
+  ``revisits`` times a step, and one chain puts robots out at most ``max_kicks`` times;
+  a robot whose turn comes unplaced plans in it.
 - Each robot then takes its operation's first action.
 
 An operation is valued by where it leaves the robot: the step it reaches the goal, if it
@@ -58,7 +59,7 @@ from warehouse_phys.planners.operation_kernels import (
     _operation_values,
     _reserve_all,
 )
-from warehouse_phys.planners.priorities import grow_priorities
+from warehouse_phys.planners.pibt.priorities import grow_priorities
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import (
     HEADING_MOVES,

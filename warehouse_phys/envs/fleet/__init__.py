@@ -23,22 +23,22 @@ from pettingzoo import AECEnv, ParallelEnv
 
 from warehouse_phys.drawing.render import DEFAULT_CELL_PX, WarehouseRenderer
 from warehouse_phys.drawing.text_frames import fleet_ansi_frame
-from warehouse_phys.envs.fleet_actions import FleetActions, aec_form
-from warehouse_phys.envs.fleet_observations import (
+from warehouse_phys.envs.fleet.actions import FleetActions, aec_form
+from warehouse_phys.envs.fleet.observations import (
     MAX_GLOBAL_OBSERVATION_ROBOTS,
     NEIGHBOUR_BITS,
     OBSERVATIONS,
     FleetObservations,
     robot_infos,
 )
-from warehouse_phys.envs.fleet_physics import drive_bodies, motion_frames, started_world
-from warehouse_phys.envs.fleet_setup import (
+from warehouse_phys.envs.fleet.physics import drive_bodies, motion_frames, started_world
+from warehouse_phys.envs.fleet.setup import (
     DELIVERY_MODES,
     LORR_STEPS,
     MAX_PHYSICS_ROBOTS,
     set_up_fleet,
 )
-from warehouse_phys.envs.fleet_state import FleetState
+from warehouse_phys.envs.fleet.state import FleetState
 from warehouse_phys.lorr.instances import LorrInstance
 from warehouse_phys.lorr.scheduling import Scheduler
 from warehouse_phys.physics import PhysicsConfig

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from warehouse_phys.envs.checks import number_text
-from warehouse_phys.envs.fleet_observations import MAX_GLOBAL_OBSERVATION_ROBOTS, OBSERVATIONS
+from warehouse_phys.envs.fleet.observations import MAX_GLOBAL_OBSERVATION_ROBOTS, OBSERVATIONS
 from warehouse_phys.lorr.errands import ErrandList, errand_list
 from warehouse_phys.lorr.instances import LorrInstance, as_instance
 from warehouse_phys.lorr.scheduling import Scheduler

@@ -36,7 +36,7 @@ from typing import Any
 
 from warehouse_phys.apps.cli import UsageError
 from warehouse_phys.apps.runs import RUN_FILES, SUMMARY_FILE, TABLE_FILE
-from warehouse_phys.apps.sweep_trials import (
+from warehouse_phys.apps.sweep.trials import (
     LOCK_FILE,
     RESULTS_CSV,
     RESULTS_JSON,

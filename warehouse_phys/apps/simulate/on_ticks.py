@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from warehouse_phys.apps.cli import UsageError, bounded_int
-from warehouse_phys.apps.simulate_results import DEFAULT_STEPS, INSTANCE_STEPS, Simulation
+from warehouse_phys.apps.simulate.results import DEFAULT_STEPS, INSTANCE_STEPS, Simulation
 from warehouse_phys.execution.delays import MAX_SEED, DelayConfig
 from warehouse_phys.execution.ticks import LORR_TICKS_PER_MOVE, MAX_TICKS_PER_MOVE
 from warehouse_phys.lorr.instances import LorrInstance

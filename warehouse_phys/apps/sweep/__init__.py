@@ -22,20 +22,20 @@ status 1 and says how many failed. Ray Tune comes with the ``ray`` extra
 status 2 and says so.
 
 Nothing waits for resources that cannot come: a grid of more than
-:data:`~warehouse_phys.apps.sweep_trials.MAX_TRIALS` trials and ``--cpus-per-trial``
+:data:`~warehouse_phys.apps.sweep.trials.MAX_TRIALS` trials and ``--cpus-per-trial``
 beyond the machine's (or the cluster's) CPUs are refused before anything is built, and
 an ``--address`` where no Ray cluster answers fails within seconds, each in one line. On SIGINT or
 SIGTERM the Ray processes the sweep started are shut down before it exits.
 
 A killed driver (SIGKILL) cannot shut Ray down, yet running the sweep again in the
-same folder at once is safe all the same: :mod:`~warehouse_phys.apps.sweep_resume`
+same folder at once is safe all the same: :mod:`~warehouse_phys.apps.sweep.resume`
 says how (the sweep folder's lock, each trial's token, finished trials' folders read
 under a shared lock).
 
 The command line is this module: its options, its checks and its messages, over
-:mod:`~warehouse_phys.apps.sweep_trials` (the trials and the results table),
-:mod:`~warehouse_phys.apps.sweep_resume` (resuming: finished trials, the folder check,
-the locks) and :mod:`~warehouse_phys.apps.sweep_ray` (Ray and Tune).
+:mod:`~warehouse_phys.apps.sweep.trials` (the trials and the results table),
+:mod:`~warehouse_phys.apps.sweep.resume` (resuming: finished trials, the folder check,
+the locks) and :mod:`~warehouse_phys.apps.sweep.on_ray` (Ray and Tune).
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ from typing import Any
 from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int
 from warehouse_phys.apps.interrupts import Terminated
 from warehouse_phys.apps.runs import ENVIRONMENTS
-from warehouse_phys.apps.sweep_ray import (
+from warehouse_phys.apps.sweep.on_ray import (
     CONNECT_TIMEOUT,
     RayUnavailableError,
     _terminated,
@@ -64,7 +64,7 @@ from warehouse_phys.apps.sweep_ray import (
     run_trial,
     run_trial_job,
 )
-from warehouse_phys.apps.sweep_resume import (
+from warehouse_phys.apps.sweep.resume import (
     FOLDER_WAIT,
     SWEEP_ENTRIES,
     SupersededError,
@@ -73,7 +73,7 @@ from warehouse_phys.apps.sweep_resume import (
     finished_row,
     take_sweep_lock,
 )
-from warehouse_phys.apps.sweep_trials import (
+from warehouse_phys.apps.sweep.trials import (
     COLUMNS,
     DEFAULT_FLOOR,
     LOCK_FILE,

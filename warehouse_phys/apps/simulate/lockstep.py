@@ -1,8 +1,8 @@
 """``simulate`` in lock step: a fleet policy moves every robot at once, a joint step at a time.
 
-:func:`simulate` plays a policy (:func:`~warehouse_phys.apps.simulate_results.make_policy`)
+:func:`simulate` plays a policy (:func:`~warehouse_phys.apps.simulate.results.make_policy`)
 on the lock-step fleet (:class:`~warehouse_phys.envs.fleet.WarehouseFleetEnv`) and
-measures it into a :class:`~warehouse_phys.apps.simulate_results.Simulation`: deliveries
+measures it into a :class:`~warehouse_phys.apps.simulate.results.Simulation`: deliveries
 a step, waits on each cell, refused moves, one-shot makespans and sums of costs, an
 instance's tasks, and each step's planned and actual actions for the competition's
 output file. :func:`run_baselines` runs the shortest-path and random baselines on the
@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from warehouse_phys.apps.simulate_results import Simulation, make_policy
+from warehouse_phys.apps.simulate.results import Simulation, make_policy
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
 from warehouse_phys.lorr.output import RunRecord, actual_actions
 from warehouse_phys.rl.fleet_evaluation import FleetPolicy, compare_policies, walled_off_packages
@@ -177,7 +177,7 @@ def _scheduler_name(errands: Any) -> str | None:
 def _not_simulated(instance: Any) -> tuple[str, ...]:
     """What of a 2026 instance the lock-step fleet does not model, in words: its actions'
     ticks (``agentCounter``) and its random delays (``delayConfig``). The command runs
-    such an instance on ticks (:mod:`warehouse_phys.apps.simulate_async`); a lock-step
+    such an instance on ticks (:mod:`warehouse_phys.apps.simulate.on_ticks`); a lock-step
     fleet built on one in Python gets these notes."""
     if instance is None:
         return ()

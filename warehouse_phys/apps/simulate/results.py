@@ -1,8 +1,8 @@
 """What a run of ``simulate`` measured and the run folder it writes: what both modes share.
 
 The command line (:mod:`warehouse_phys.apps.simulate`) runs one of two modes, the
-lock-step run (:mod:`warehouse_phys.apps.simulate_lockstep`) and the run on ticks and
-delays (:mod:`warehouse_phys.apps.simulate_async`); both stand on this module:
+lock-step run (:mod:`warehouse_phys.apps.simulate.lockstep`) and the run on ticks and
+delays (:mod:`warehouse_phys.apps.simulate.on_ticks`); both stand on this module:
 
 - :class:`Simulation`, a run's record: its measures in one line, its ``summary.json``,
   the CPU time of its reset, steps and frames; a run on ticks' record is a subclass;
@@ -40,7 +40,7 @@ DEFAULT_STEPS, INSTANCE_STEPS = 256, 5000
 @dataclass(frozen=True)
 class Simulation:
     """What a fleet did in one run of
-    :func:`~warehouse_phys.apps.simulate_lockstep.simulate`."""
+    :func:`~warehouse_phys.apps.simulate.lockstep.simulate`."""
 
     layout: str
     robots: int

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from warehouse_phys.planners.pibt_floor import NIL, PlanningFloor
-from warehouse_phys.planners.pibt_swap import SwapOperation, pull
+from warehouse_phys.planners.pibt.floor import NIL, PlanningFloor
+from warehouse_phys.planners.pibt.swaps import SwapOperation, pull
 
 #: Without corner follows, how many robots of a line in the way are asked to leave it.
 _MAX_ASKED = 8

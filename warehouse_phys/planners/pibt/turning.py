@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from warehouse_phys.planners.pibt_floor import NIL, PlanningFloor
+from warehouse_phys.planners.pibt.floor import NIL, PlanningFloor
 from warehouse_phys.world.headings import (
     MOVE_HEADINGS,
     TurnAction,

@@ -17,7 +17,7 @@ package; ``--physics`` drives the physics twin. The command prints the throughpu
 (deliveries per step), deliveries, waits and refused moves (one-shot, also the
 packages delivered, the makespan, the sum of costs against the shortest paths' and
 the packages walled off); when it is cheap (robots x steps at most
-:data:`~warehouse_phys.apps.simulate_lockstep.COMPARE_BUDGET` on the grid;
+:data:`~warehouse_phys.apps.simulate.lockstep.COMPARE_BUDGET` on the grid;
 ``--no-compare`` skips it) it runs the shortest-path and random baselines on the same
 floor, seed and steps and names a policy that does worse. It writes a run folder (default
 ``runs/simulate-<floor>-<robots>-<policy>-seed<seed>-<time>``): ``summary.json``
@@ -43,7 +43,7 @@ counts ticks (an instance's 5,000 by default, as LoRR 2026 counts; a floor's 256
 worth). It reports errands and tasks a tick and a move-duration, the robot-ticks stood
 still by own and knock-on delays and the mean drift; its ``lorr-output.json`` adds
 ``agentMaxCounter`` and ``delayIntervals``. ``--moves rotate`` turns LoRR's robots on
-ticks too: :mod:`warehouse_phys.apps.simulate_async` has the details.
+ticks too: :mod:`warehouse_phys.apps.simulate.on_ticks` has the details.
 
 ``summary.json`` records the CPU time of the reset, of the first step and the median and
 slowest of the others (frames apart), and of the frames.
@@ -51,9 +51,9 @@ SIGTERM stops it as Ctrl-C does (exit status 143).
 
 The command line is this module: its options, its checks and its messages. It runs one of
 two modes, each a module, over what both share (no mode imports the other):
-:mod:`~warehouse_phys.apps.simulate_lockstep` (:func:`simulate`, the baselines),
-:mod:`~warehouse_phys.apps.simulate_async` (the run on ticks) and
-:mod:`~warehouse_phys.apps.simulate_results` (the :class:`Simulation` record, the
+:mod:`~warehouse_phys.apps.simulate.lockstep` (:func:`simulate`, the baselines),
+:mod:`~warehouse_phys.apps.simulate.on_ticks` (the run on ticks) and
+:mod:`~warehouse_phys.apps.simulate.results` (the :class:`Simulation` record, the
 policies by name, the run folder's files).
 """
 
@@ -79,21 +79,21 @@ from warehouse_phys.apps.cli import (
     written_note,
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
-from warehouse_phys.apps.simulate_async import (
-    add_tick_arguments,
-    default_ticks,
-    simulate_ticks,
-    tick_fleet,
-    tick_options,
-)
-from warehouse_phys.apps.simulate_lockstep import (
+from warehouse_phys.apps.simulate.lockstep import (
     BASELINES,
     COMPARE_BUDGET,
     comparison_table,
     run_baselines,
     simulate,
 )
-from warehouse_phys.apps.simulate_results import (
+from warehouse_phys.apps.simulate.on_ticks import (
+    add_tick_arguments,
+    default_ticks,
+    simulate_ticks,
+    tick_fleet,
+    tick_options,
+)
+from warehouse_phys.apps.simulate.results import (
     DEFAULT_STEPS,
     INSTANCE_STEPS,
     POLICIES,
@@ -104,7 +104,7 @@ from warehouse_phys.apps.simulate_results import (
     write_run_files,
 )
 from warehouse_phys.envs.fleet import WarehouseFleetEnv, parallel_env
-from warehouse_phys.envs.fleet_setup import DELIVERY_MODES
+from warehouse_phys.envs.fleet.setup import DELIVERY_MODES
 from warehouse_phys.lorr.instances import SCHEDULED, read_instance
 from warehouse_phys.lorr.output import RunRecord
 from warehouse_phys.lorr.scheduling import SCHEDULERS
@@ -249,7 +249,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
     """The fleet and its policy that the command line asks for: the asynchronous fleet
-    and no policy for a run on ticks (:mod:`warehouse_phys.apps.simulate_async`).
+    and no policy for a run on ticks (:mod:`warehouse_phys.apps.simulate.on_ticks`).
 
     Raises:
         UsageError: one line, for arguments that do not go together or that the fleet

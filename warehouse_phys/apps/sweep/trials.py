@@ -31,7 +31,7 @@ DEFAULT_FLOOR = "default"
 #: The sweep's tables and figure, in the sweep folder.
 RESULTS_CSV, RESULTS_JSON, SUMMARY_PNG = "results.csv", "results.json", "summary.png"
 #: The driver's lock file in the sweep folder: its pid and its run's token. Each trial's
-#: job names it (:meth:`Trial.to_job`); :mod:`~warehouse_phys.apps.sweep_resume` takes it.
+#: job names it (:meth:`Trial.to_job`); :mod:`~warehouse_phys.apps.sweep.resume` takes it.
 LOCK_FILE = "sweep.lock"
 #: Most seeds in one ``--seeds``: each is a trial (times the other settings) and a folder.
 MAX_SEEDS = 10_000

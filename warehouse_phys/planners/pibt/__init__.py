@@ -19,11 +19,11 @@ Like :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, py
 pygame nor PettingZoo; it reads the fleet's public arrays, never its internals.
 
 Its parts each have a module of their own: the floor round parked robots
-(:mod:`~warehouse_phys.planners.pibt_floor`), the swap operation
-(:mod:`~warehouse_phys.planners.pibt_swap`), the straight-line pushes of fleets without
-corner follows (:mod:`~warehouse_phys.planners.pibt_straight`), turning robots' actions
-(:mod:`~warehouse_phys.planners.pibt_turning`) and the priorities
-(:mod:`~warehouse_phys.planners.priorities`); the recursion and the names are the paper's.
+(:mod:`~warehouse_phys.planners.pibt.floor`), the swap operation
+(:mod:`~warehouse_phys.planners.pibt.swaps`), the straight-line pushes of fleets without
+corner follows (:mod:`~warehouse_phys.planners.pibt.straight`), turning robots' actions
+(:mod:`~warehouse_phys.planners.pibt.turning`) and the priorities
+(:mod:`~warehouse_phys.planners.pibt.priorities`); the recursion and the names are the paper's.
 """
 
 from __future__ import annotations
@@ -33,11 +33,11 @@ from typing import Any
 import numpy as np
 
 from warehouse_phys.planners.distances import DistanceMaps
-from warehouse_phys.planners.pibt_floor import NIL, PlanningFloor
-from warehouse_phys.planners.pibt_straight import StraightPushes
-from warehouse_phys.planners.pibt_swap import SwapOperation, pull
-from warehouse_phys.planners.pibt_turning import Commitments, count_turns
-from warehouse_phys.planners.priorities import grow_priorities
+from warehouse_phys.planners.pibt.floor import NIL, PlanningFloor
+from warehouse_phys.planners.pibt.priorities import grow_priorities
+from warehouse_phys.planners.pibt.straight import StraightPushes
+from warehouse_phys.planners.pibt.swaps import SwapOperation, pull
+from warehouse_phys.planners.pibt.turning import Commitments, count_turns
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES, MOVE_MODELS, TurnAction
 from warehouse_phys.world.traffic import FLEET_ACTIONS, WAIT
@@ -369,7 +369,7 @@ class PIBT:
     ) -> list[Any]:
         """A stack frame of :meth:`_pibt` for robot ``i``: its candidates, reversed (away
         from its goal first) when it must let a robot pass (:meth:`SwapOperation.partner
-        <warehouse_phys.planners.pibt_swap.SwapOperation.partner>`)."""
+        <warehouse_phys.planners.pibt.swaps.SwapOperation.partner>`)."""
         candidates = ranked_of[i]
         if self.turning:  # no swap operation: it would pull a robot backwards
             return [i, candidates, 0, NIL]

@@ -6,16 +6,16 @@ corridor closed at the far end, a pocket left by parked robots) steps back, away
 goal, and pulls that robot into its cell, so the two pass each other where the corridor
 opens instead of facing each other for ever. :class:`SwapOperation` says which robot must
 let which pass (over the floor's exits round the held cells,
-:class:`~warehouse_phys.planners.pibt_floor.PlanningFloor`); :func:`pull` is the
+:class:`~warehouse_phys.planners.pibt.floor.PlanningFloor`); :func:`pull` is the
 operation's second half. :class:`~warehouse_phys.planners.pibt.PIBT` makes it with corner
-follows, and straight (:mod:`warehouse_phys.planners.pibt_straight`) without them.
+follows, and straight (:mod:`warehouse_phys.planners.pibt.straight`) without them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from warehouse_phys.planners.pibt_floor import NIL, PlanningFloor
+from warehouse_phys.planners.pibt.floor import NIL, PlanningFloor
 
 
 class SwapOperation:
@@ -23,7 +23,7 @@ class SwapOperation:
 
     Args:
         floor: The floor, the cells held on it now and the robots' distances
-            (:meth:`~warehouse_phys.planners.pibt_floor.PlanningFloor.distance`).
+            (:meth:`~warehouse_phys.planners.pibt.floor.PlanningFloor.distance`).
     """
 
     def __init__(self, floor: PlanningFloor) -> None:

@@ -24,8 +24,8 @@ from typing import Any
 from warehouse_phys.apps.cli import UsageError
 from warehouse_phys.apps.interrupts import Terminated
 from warehouse_phys.apps.runs import Floor
-from warehouse_phys.apps.sweep_resume import TrialFolder
-from warehouse_phys.apps.sweep_trials import _measures
+from warehouse_phys.apps.sweep.resume import TrialFolder
+from warehouse_phys.apps.sweep.trials import _measures
 from warehouse_phys.rl.qlearning import QLearningConfig
 
 #: How long ``--address host:port`` may take to accept a connection [s].

@@ -1,0 +1,8 @@
+"""``python -m warehouse_phys.apps.simulate``: the same command as
+``python -m warehouse_phys.simulate``."""
+
+import sys
+
+from warehouse_phys.apps.simulate import main
+
+sys.exit(main())

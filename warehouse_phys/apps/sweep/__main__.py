@@ -1,0 +1,8 @@
+"""``python -m warehouse_phys.apps.sweep``: the same command as
+``python -m warehouse_phys.sweep``."""
+
+import sys
+
+from warehouse_phys.apps.sweep import main
+
+sys.exit(main())
