@@ -304,7 +304,7 @@ def vector_figures(sizes: list[int], env_steps: int, rounds: int) -> list[Figure
 def chipmunk_timed(run: Callable[[], float]) -> tuple[Callable[[], float], Callable[[], float]]:
     """``run`` with every physics step of the batched world timed: the run, and the CPU
     seconds its last call spent inside chipmunk's ``cpSpaceStep``."""
-    from warehouse_phys.physics import batched as batched_physics
+    from warehouse_phys.physics import body_io as batched_physics  # where the world steps
 
     stepping = batched_physics.space_stepping
     inside = [0.0]

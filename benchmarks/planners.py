@@ -62,9 +62,14 @@ from warehouse_phys.envs import lorr
 from warehouse_phys.envs.fleet import parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.lorr.instances import read_instance
-from warehouse_phys.lorr.scheduling import SCHEDULERS, scheduler_named
+from warehouse_phys.lorr.scheduling_assignment import SCHEDULER_NAMES, scheduler_for
 from warehouse_phys.lorr.task_flow import congestion_free_flow
-from warehouse_phys.rl.fleet_planners import PLANNER_OPERATIONS, PLANNERS, planner_policy
+from warehouse_phys.rl.fleet_planners import (
+    PLANNER_OPERATIONS,
+    PLANNER_REPAIRS,
+    PLANNERS,
+    planner_policy,
+)
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 MR23 = SHARED / "lorr" / "2023-main-warehouse" / "MR23-I-10.json"
@@ -90,9 +95,20 @@ def guidance_of(name: str, time_limit: float | None) -> dict[str, object]:
     return GUIDANCE | ({} if time_limit is None else {"time_limit": time_limit})
 
 
-def scheduler_option(name: str | None) -> dict[str, object]:
-    """The fleet's ``scheduler=`` for a built-in scheduler's name (none: its default)."""
-    return {} if name is None else {"scheduler": scheduler_named(name)}
+def scheduler_name(text: str) -> str:
+    """A scheduler's name: one of ``SCHEDULER_NAMES``, or ``assignment=W`` (W >= 0)."""
+    kind, equals, weight = text.partition("=")
+    try:
+        if text in SCHEDULER_NAMES or (kind == "assignment" and equals and float(weight) >= 0):
+            return text
+    except ValueError:
+        pass
+    raise argparse.ArgumentTypeError(f"expected one of {SCHEDULER_NAMES} or assignment=W")
+
+
+def scheduler_option(name: str | None, grid: object) -> dict[str, object]:
+    """The fleet's ``scheduler=`` for a scheduler's name on ``grid`` (none: its default)."""
+    return {} if name is None else {"scheduler": scheduler_for(name, grid)}
 
 
 def lorr_run(
@@ -108,16 +124,21 @@ def lorr_run(
     """One planner on ``instance`` (MR23-I-10) in this process; its figures. ``scheduler``
     names a built-in scheduler for a 2024 instance (None: the fleet's default); every
     ``progress`` steps (0: never) the counts so far go to stderr."""
-    env = lorr.fleet(instance, moves=moves, max_cycles=steps, **scheduler_option(scheduler))
+    loaded = read_instance(instance)
+    env = lorr.fleet(loaded, moves=moves, max_cycles=steps,
+                     **scheduler_option(scheduler, loaded.grid))  # fmt: skip
     policy = planner_policy(name, seed=0, **guidance_of(name, time_limit))
     gc.freeze()  # as simulate does: the floor's objects leave Python's full collections
     observations, infos = env.reset(seed=0)
-    step_s, refused, done_at, searches, unguided = [], 0, [], [], 0
+    step_s, wall_s, refused, done_at, searches, unguided = [], [], 0, [], [], 0
+    tasks_at = []
     for _ in range(steps):
-        begun = time.process_time()
+        begun, begun_wall = time.process_time(), time.perf_counter()
         actions = policy(env, observations, infos)
         observations, _, _, _, infos = env.step(actions)
         step_s.append(time.process_time() - begun)
+        wall_s.append(time.perf_counter() - begun_wall)
+        tasks_at.append(env.errands.tasks_done)
         refused += sum(info["refused"] for info in infos.values())
         done_at.append(env.errands.errands_done)
         if progress and len(done_at) % progress == 0:
@@ -130,7 +151,10 @@ def lorr_run(
             searches.append(planner.guidance.searches)
             unguided += planner.guidance.timed_out
     later = step_s[1:] or step_s
+    later_wall = wall_s[1:] or wall_s
     last = min(window, steps)
+    third = steps // 3
+    thirds = [tasks_at[third - 1], tasks_at[2 * third - 1], tasks_at[-1]] if third else [0, 0, 0]
     return {
         "planner": name,
         "instance": env.instance.name,
@@ -146,6 +170,15 @@ def lorr_run(
         "first_step_s": step_s[0],
         "step_s_median": statistics.median(later),
         "step_s_max": max(later),
+        "first_step_wall_s": wall_s[0],
+        "step_wall_s_median": statistics.median(later_wall),
+        "step_wall_s_max": max(later_wall),
+        "tasks_per_step_thirds": [
+            thirds[0] / max(third, 1),
+            (thirds[1] - thirds[0]) / max(third, 1),
+            (thirds[2] - thirds[1]) / max(steps - 2 * third, 1),
+        ],
+        "tasks_at": tasks_at[99::100],
         "first_step_searches": searches[0] if searches else None,
         "searches_per_step": statistics.fmean(searches[1:] or searches) if searches else None,
         "unguided": unguided,
@@ -157,7 +190,7 @@ def flow_run(instance: Path, steps: int, scheduler: str | None) -> dict[str, obj
     """The congestion-free flow of ``instance`` (:mod:`warehouse_phys.lorr.task_flow`):
     what its errand list and scheduler would finish if robots never met."""
     loaded = read_instance(instance)
-    flow = congestion_free_flow(loaded, steps, **scheduler_option(scheduler))
+    flow = congestion_free_flow(loaded, steps, **scheduler_option(scheduler, loaded.grid))
     return {
         "instance": loaded.name,
         "scheduler": scheduler,
@@ -180,7 +213,10 @@ def describe_lorr(run: dict[str, object]) -> str:
         f"the last {run['last_steps']}), {run.get('tasks_per_step', 0):.2f} tasks/step, "
         f"{run['refused']} refused; first step "
         f"{run['first_step_s']:.1f} s, then {run['step_s_median'] * 1000:.0f} ms/step (max "
-        f"{run['step_s_max'] * 1000:.0f}){guided}; peak {run['peak_rss_mib']:,.0f} MiB"
+        f"{run['step_s_max'] * 1000:.0f}) CPU, {run.get('step_wall_s_median', 0) * 1000:.0f} ms "
+        f"(max {run.get('step_wall_s_max', 0) * 1000:.0f}, first "
+        f"{run.get('first_step_wall_s', 0):.1f} s) wall{guided}; peak "
+        f"{run['peak_rss_mib']:,.0f} MiB"
     )
 
 
@@ -323,7 +359,7 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     parser.add_argument("--skip-lorr", action="store_true", help="no MR23-I-10 runs")
     parser.add_argument("--instance", type=Path, default=MR23,
                         help="the LoRR instance of those runs (MR23-I-10)")  # fmt: skip
-    parser.add_argument("--scheduler", choices=tuple(SCHEDULERS),
+    parser.add_argument("--scheduler", type=scheduler_name,
                         help="a 2024 instance's scheduler (the fleet's default)")  # fmt: skip
     parser.add_argument("--skip-kiva", action="store_true", help="no kiva-33-46 table")
     parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke test")
@@ -343,7 +379,7 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     unknown = [name for name in planners if name not in PLANNERS]
     if unknown:
         parser.error(f"unknown planners {unknown}; known: {list(PLANNERS)}")
-    turning_only = [name for name in planners if name in PLANNER_OPERATIONS]
+    turning_only = [name for name in planners if name in {**PLANNER_OPERATIONS, **PLANNER_REPAIRS}]
     if turning_only and (args.moves != "rotate" or args.scaling):
         parser.error(f"{turning_only} plan turning robots: add --moves rotate (the scaling "
                      "runs are four-direction)")  # fmt: skip

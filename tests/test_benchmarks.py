@@ -252,10 +252,40 @@ def test_the_planners_benchmark_plays_operations_with_turning_robots_only(tmp_pa
         pytest.skip("kiva-33-46.map not found beside the checkout")
     result = subprocess.run(
         [sys.executable, "benchmarks/planners.py", "--quick", "--skip-lorr", "--moves",
-         "rotate", "--planners", "pibt-ops,guided-ops", "--json", str(tmp_path / "p.json")],
+         "rotate", "--planners", "pibt-ops,guided-ops,guided-repair", "--json",
+         str(tmp_path / "p.json")],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     rows = json.loads((tmp_path / "p.json").read_text())["kiva"]
     assert [(row["planner"], row["moves"], row["refused"]) for row in rows] == [
-        ("pibt-ops", "rotate", 0), ("guided-ops", "rotate", 0)] * 2  # fmt: skip
+        ("pibt-ops", "rotate", 0), ("guided-ops", "rotate", 0),
+        ("guided-repair", "rotate", 0)] * 2  # fmt: skip
+
+
+@pytest.mark.slow
+def test_the_physics_scale_benchmark_reports_time_memory_and_real_time(tmp_path):
+    """A smoke run: two small fleets, every candidate (threads, safety), the figure, and
+    the environment's pair of runs."""
+    if not (ROOT.parent / "shared" / "maps" / "warehouse-large-140-500.map").exists():
+        pytest.skip("benchmark maps not found beside the checkout (../shared/maps)")
+    result = subprocess.run(
+        [sys.executable, "benchmarks/physics_scale.py", "--quick", "--env", "--json",
+         str(tmp_path / "p.json"), "--plot", str(tmp_path / "p.png")],
+        cwd=ROOT, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    report = json.loads((tmp_path / "p.json").read_text())
+    assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
+    rows = report["scaling"]["rows"]
+    assert {(row["robots"], row["candidate"]) for row in rows} == {
+        (n, name) for n in (300, 600)
+        for name in ("1 thread", "1 thread, safety", "2 threads", "2 threads, safety")
+    }  # fmt: skip
+    for row in rows:
+        assert row["ms_per_tick"] > 0
+        assert 0 < row["critical_ms_per_tick"] <= row["ms_per_tick"] * 1.000001
+        assert row["peak_mib"] > 0
+    pair = report["environment"]["thousand"]
+    assert pair["arrays"]["safety"]["body_contacts"] == 0
+    assert pair["arrays"]["errands"] == pair["dicts"]["errands"]  # the same episode

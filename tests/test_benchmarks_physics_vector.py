@@ -26,7 +26,7 @@ def test_a_candidate_may_count_only_part_of_its_cpu_time():
 
 
 def test_chipmunk_timed_counts_the_space_steps_and_puts_the_stepping_back():
-    from warehouse_phys.physics import batched
+    from warehouse_phys.physics import body_io as batched  # where the batched world steps
 
     stepping = batched.space_stepping
     envs = gym.make_vec(warehouse_phys.PHYSICS_ENV_ID, num_envs=4)

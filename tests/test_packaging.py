@@ -12,12 +12,13 @@ from pathlib import Path
 import pytest
 
 from warehouse_phys.drawing.render import SPRITE_NAMES
+from warehouse_phys.world.maps import MAPS
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 @pytest.mark.slow
-def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
+def test_sprites_and_maps_load_from_an_installed_wheel(tmp_path, run_python):
     source = tmp_path / "src"
     source.mkdir()
     for name in ("pyproject.toml", "README.md", "LICENSE"):
@@ -36,6 +37,8 @@ def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
     names = set(zipfile.ZipFile(wheel).namelist())
     for sprite in SPRITE_NAMES:
         assert f"warehouse_phys/sprites/{sprite}" in names
+    for name in MAPS:  # the benchmark maps the package ships
+        assert f"warehouse_phys/world/map_files/{name}.map" in names
     assert any(name.endswith(".dist-info/licenses/LICENSE") for name in names)
 
     site = tmp_path / "site"
@@ -50,12 +53,18 @@ def test_sprites_load_from_an_installed_wheel(tmp_path, run_python):
         "env = gym.make('warehouse-robot-v0', render_mode='rgb_array')\n"
         "env.reset(seed=0)\n"
         "print(env.render().shape)\n"
+        "from warehouse_phys.world.maps import map_path\n"
+        "from warehouse_phys.world.layouts import resolve_layout\n"
+        "print(map_path('kiva-33-46'))\n"
+        "print(resolve_layout('kiva-33-46').shelf_mask.shape)\n"
     )
     outside = tmp_path / "elsewhere"
     outside.mkdir()
     out = run_python(script, cwd=outside, env={**os.environ, "PYTHONPATH": str(site)}).splitlines()
     assert Path(out[0]).is_relative_to(site)
     assert out[1] == "(280, 320, 3)"
+    assert Path(out[2]).is_relative_to(site)
+    assert out[3] == "(33, 46)"
 
 
 def test_readme_python_examples_run_as_scripts(tmp_path):

@@ -53,7 +53,7 @@ def test_sigterm_says_what_was_written_removes_the_empty_run_folder_and_exits_14
     assert process.returncode == 143, err
     prog = f"python -m {command[0]}"
     assert err == f"{prog}: terminated; nothing was written\n"
-    assert list((tmp_path / "runs").iterdir()) == []  # the run folder is gone
+    assert list(tmp_path.iterdir()) == []  # the run folder is gone, and runs/ it made
 
 
 def test_sigterm_after_some_files_names_them_and_leaves_no_half_written_file(
@@ -88,30 +88,73 @@ def test_sigterm_after_some_files_names_them_and_leaves_no_half_written_file(
     ],
     ids=["simulate", "train"],
 )  # fmt: skip
-@pytest.mark.parametrize("moment", ["created", "locked"])
+@pytest.mark.parametrize("moment", ["runs created", "created", "locked"])
 def test_sigterm_while_the_run_folder_is_opened_leaves_no_folder(
     tmp_path, capsys, monkeypatch, command, moment
 ):
-    """The folder is created, then opened and locked: a SIGTERM right after either step
-    (here sent by the step itself) still removes it."""
+    """A first run creates runs/, then its folder in it, then opens and locks that: a
+    SIGTERM right after any of these steps (here sent by the step itself) removes both."""
     import importlib
-
-    from warehouse_phys.files import runfolder
 
     module, argv = command
     main = importlib.import_module(module).main
-    step = {"created": (runfolder.Path, "mkdir"), "locked": (runfolder.fcntl, "flock")}[moment]
-    real = getattr(*step)
-
-    def then_sigterm(*args, **kwargs):
-        result = real(*args, **kwargs)
-        if not (moment == "created" and args[0].name == "runs"):  # the parent folder
-            signal.raise_signal(signal.SIGTERM)
-        return result
-
-    monkeypatch.setattr(*step, then_sigterm)
+    sent = _sigterm_after(monkeypatch, moment, "runs")
     monkeypatch.chdir(tmp_path)
     assert main(argv) == 143
     prog = "python -m " + module.replace(".apps", "")
     assert capsys.readouterr().err == f"{prog}: terminated; nothing was written\n"
-    assert list((tmp_path / "runs").iterdir()) == []
+    assert sent == [moment]
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("moment", ["sweeps created", "created", "locked"])
+def test_sigterm_while_a_first_sweep_makes_its_folder_leaves_no_folder(
+    tmp_path, capsys, monkeypatch, moment
+):
+    from warehouse_phys.apps import sweep
+
+    monkeypatch.setattr(sweep, "run_on_tune", lambda *a, **k: pytest.fail("Ray was started"))
+    sent = _sigterm_after(monkeypatch, moment, "sweeps")
+    monkeypatch.chdir(tmp_path)
+    assert sweep.main(["--seeds", "1", "--quiet"]) == 143
+    assert sent == [moment]
+    assert capsys.readouterr().err.startswith("python -m warehouse_phys.sweep: terminated;")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_refused_argument_or_an_early_interrupt_leaves_no_runs_folder(tmp_path, monkeypatch):
+    """Before the run folder is made (arguments, floors, the planner's set-up) nothing
+    is on disk, and nothing is left."""
+    from warehouse_phys.apps import simulate, train
+
+    monkeypatch.chdir(tmp_path)
+    assert simulate.main(["--robots", "300", "--quiet"]) == 2
+    assert train.main(["--episodes", "0"]) == 2
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt  # Ctrl-C while the fleet is being built
+
+    monkeypatch.setattr(simulate, "parallel_env", interrupted)
+    assert simulate.main(["--robots", "2", "--quiet"]) == 130
+    assert list(tmp_path.iterdir()) == []
+
+
+def _sigterm_after(monkeypatch, moment, parent):  # -> the moments it was sent at
+    """Send SIGTERM right after ``moment``: the first run's ``parent`` folder (runs/,
+    sweeps/) is created, its own folder is created, or its folder is locked."""
+    from warehouse_phys.files import runfolder
+
+    step = (runfolder.fcntl, "flock") if moment == "locked" else (runfolder.Path, "mkdir")
+    real = getattr(*step)
+    sent = []
+
+    def then_sigterm(*args, **kwargs):
+        result = real(*args, **kwargs)
+        made_parent = step[1] == "mkdir" and args[0].name == parent
+        if not sent and (moment == f"{parent} created") == made_parent:
+            sent.append(moment)
+            signal.raise_signal(signal.SIGTERM)
+        return result
+
+    monkeypatch.setattr(*step, then_sigterm)
+    return sent

@@ -7,10 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from warehouse_phys.apps.simulate import main
+from warehouse_phys.apps.simulate import POLICIES, build_parser, main
 from warehouse_phys.apps.simulate.lockstep import simulate
 from warehouse_phys.drawing.map_frames import MAP_PACKAGE, MAP_ROBOT_COLOURS, fleet_map_frame
 from warehouse_phys.envs import fleet
+from warehouse_phys.rl.fleet_planners import PLANNERS, TURNING_ONLY
 
 #: The benchmark maps beside the repository (MovingAI), absent on a fresh clone.
 MAPS = Path(__file__).resolve().parents[3] / "shared" / "maps"
@@ -47,6 +48,35 @@ def test_the_guided_planner_is_chosen_by_name(tmp_path, capsys):
     assert summary["policy"] == "guided"
     assert summary["refused"] == 0
     assert summary["deliveries"] > 0
+
+
+@pytest.mark.parametrize("name", PLANNERS)
+def test_every_planner_runs_by_its_name(name, tmp_path, capsys):
+    # PLANNERS is the planners' one list (rl/fleet_planners.py): a planner added there
+    # runs here by its name, or this test fails. TURNING_ONLY's plan turning robots only.
+    out = tmp_path / name
+    turning = ["--moves", "rotate"] if name in TURNING_ONLY else []
+    argv = ["--layout", "warehouse", "--robots", "8", "--steps", "12", "--policy", name,
+            *turning, "--frames", "0", "--no-compare", "--out", str(out), "--quiet"]  # fmt: skip
+    assert build_parser().parse_args(argv).policy == name
+    assert main(argv) == 0, capsys.readouterr().err
+    assert capsys.readouterr().out.startswith(f"{name}, 8 robots")
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["policy"], summary["refused"]) == (name, 0)
+    assert name in POLICIES
+
+
+@pytest.mark.parametrize("name", sorted(TURNING_ONLY))
+def test_a_planner_of_turning_robots_without_them_ends_in_one_line(
+    name, tmp_path, capsys, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)
+    assert main(["--robots", "2", "--steps", "3", "--policy", name, "--quiet"]) == 2
+    assert capsys.readouterr().err == (
+        f"python -m warehouse_phys.simulate: error: policy {name!r} plans turning robots "
+        "only: give --moves rotate\n"
+    )
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize(
@@ -267,7 +297,9 @@ def test_what_a_run_does_not_model_is_said_in_its_output_and_summary(tmp_path, c
             f"not simulated: {note}" for note in notes[name]
         ]
     assert notes["plain"] == []
-    assert [note.split(" (")[0] for note in notes["timed"]] == ["turning robots", "agentSize"]
+    # A 2026 instance runs by the start kit's rules (turning robots, squares): only time
+    # is left out, the kit's real-time rounds.
+    assert [note.split(":")[0] for note in notes["timed"]] == ["time"]
     env = fleet.parallel_env(instance=timed, record_errands=True)
     result, _ = simulate(env, pibt_policy(0), steps=2)
     assert result.not_simulated == (

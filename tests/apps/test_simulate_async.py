@@ -12,7 +12,8 @@ from warehouse_phys.apps.simulate import main
 from warehouse_phys.apps.simulate.on_ticks import DEFAULT_DELAYS
 from warehouse_phys.execution.delays import DelayConfig, DelayGenerator
 from warehouse_phys.lorr.instances import read_instance, write_instance
-from warehouse_phys.lorr.output import GRID_LETTERS, replay
+from warehouse_phys.lorr.output import replay
+from warehouse_phys.lorr.output_2026 import KEYS, read_output, walk
 
 LORR = Path(__file__).resolve().parents[3] / "shared" / "lorr"
 MAZE = LORR / "2026-examples-maze" / "maze-example_40.json"
@@ -45,41 +46,47 @@ def drawn(config, robots, ticks):
 
 
 @needs_maze
-def test_a_2026_instance_runs_on_its_ticks_and_writes_its_delay_intervals(tmp_path, capsys):
+def test_a_2026_instance_runs_by_the_start_kits_rules_and_writes_its_2026_output(tmp_path, capsys):
     instance = read_instance(MAZE)
     summary, output = run(tmp_path, "a", "--instance", str(MAZE), "--steps", str(TICKS))
     printed = capsys.readouterr().out
-    assert f"40 robots on maze-example_40, {TICKS} ticks (3 ticks a move, pDelay 0.0003" in printed
-    for measure in ("errands/tick", "tasks/tick", "a move", "own delay", "knock-on", "mean drift"):
-        assert measure in printed
-    # The output: LoRR's agentCounter and the delay generator's draws, one letter a tick.
+    assert (f"pibt, 40 robots on maze-example_40, {TICKS} ticks by the start kit's rules (3 "
+            "ticks a move or turn, squares of side 1, a plan every 10 ticks, pDelay 0.0003") \
+        in printed  # fmt: skip
+    assert "0 square collisions by the kit's rule, 0 schedule errors" in printed
+    # The kit's 2026 output: its keys, its segments, the delay generator's draws.
+    assert list(output) == list(KEYS)
     assert output["agentMaxCounter"] == instance.agent_counter == 3
+    assert output["outputSegmentSize"] == 100
+    assert output["makespan"] == TICKS
     intervals = output["delayIntervals"]
     assert intervals == drawn(instance.delay, 40, TICKS)
-    assert len(intervals) == 40
     assert any(intervals)
     assert all(5 <= end - start <= 12 for robot in intervals for start, end in robot)
-    assert all(len(path.split(",")) == TICKS for path in output["actualPaths"])
-    assert set(",".join(output["actualPaths"]).split(",")) <= set(GRID_LETTERS)
-    assert len(output["plannerTimes"]) == summary["execution"]["plans"] == TICKS // 3
+    read = read_output(tmp_path / "a" / "lorr-output.json")
+    assert read.actual.shape == (40, TICKS)
+    assert walk(read, instance.grid).collisions == []
     assert output["numTaskFinished"] == summary["tasks"]
-    assert replay(output, instance.grid).conflicts == []
-    # The summary: the rates a tick and a move, the shares, no note on ticks or delays.
-    assert summary["time_unit"] == "tick"
-    assert summary["ticks"] == summary["steps"] == TICKS
-    assert summary["ticks_per_move"] == 3
+    assert output["numPlannerErrors"] == 0
+    # The summary: the rates a tick, the kit's rules.
+    assert (summary["time_unit"], summary["rules"], summary["ticks"]) == (
+        "tick",
+        "start kit",
+        TICKS,
+    )
     assert summary["delay_config"] == instance.delay.to_json()
     assert summary["delays_drawn"] == sum(map(len, intervals))
-    assert set(summary["execution"]) == MEASURES
+    assert summary["square_collisions"] == 0
     assert summary["errands_per_tick"] == summary["errands"] / TICKS
-    assert summary["errands_per_move"] == pytest.approx(3 * summary["errands_per_tick"])
-    assert summary["tasks_per_move"] == pytest.approx(3 * summary["tasks"] / TICKS)
-    assert not any("agentCounter (" in note for note in summary["not_simulated"])
-    # Bit-identical in a second run.
-    again, repeated = run(tmp_path, "b", "--instance", str(MAZE), "--steps", str(TICKS))
+    # Bit-identical in a second run; and --delays-from replays every interval of the first.
+    _, repeated = run(tmp_path, "b", "--instance", str(MAZE), "--steps", str(TICKS))
     for key in ("delayIntervals", "actualPaths", "events", "tasks"):
         assert repeated[key] == output[key]
-    assert again["execution"] == summary["execution"]
+    first = str(tmp_path / "a" / "lorr-output.json")
+    _, replayed = run(tmp_path, "c", "--instance", str(MAZE), "--steps", str(TICKS),
+                      "--p-delay", "0.2", "--delays-from", first)  # fmt: skip
+    for key in ("delayIntervals", "actualPaths", "events", "tasks"):
+        assert replayed[key] == output[key]
 
 
 @needs_maze
@@ -101,7 +108,7 @@ def test_ticks_on_an_earlier_instance_write_empty_delay_intervals_and_replay(tmp
     empty list of delays a robot; the paths replay tick by tick without a conflict."""
     path = write_instance(small_instance("scheduler", robots=6), tmp_path / "small.json")
     summary, output = run(tmp_path, "run", "--instance", str(path), "--ticks-per-move", "4",
-                          "--steps", "120")  # fmt: skip
+                          "--steps", "120", "--moves", "grid")  # fmt: skip
     assert "120 ticks (4 ticks a move, no delays, grid moves)" in capsys.readouterr().out
     assert output["agentMaxCounter"] == 4
     assert output["delayIntervals"] == [[]] * 6
@@ -131,24 +138,40 @@ def test_the_tick_flags_run_a_plain_floor(tmp_path, capsys):
     assert "comparison" not in summary
 
 
+def test_turning_robots_run_on_ticks_on_a_floor_and_the_guided_planner_too(tmp_path, capsys):
+    """LoRR's robot model on a floor of our own: forward moves and quarter turns each take
+    the move's ticks, robots as discs (our model); the guided planner runs on ticks."""
+    for policy in ("pibt", "guided"):
+        summary, output = run(tmp_path, policy, "--layout", "aisles", "--robots", "4",
+                              "--moves", "rotate", "--ticks-per-move", "3", "--steps", "150",
+                              "--p-delay", "0.05", "--policy", policy)  # fmt: skip
+        printed = capsys.readouterr().out
+        assert f"{policy}, 4 robots on aisles, 150 ticks" in printed
+        assert "rotate moves" in printed
+        assert output is None
+        assert summary["deliveries"] > 0
+
+
 @needs_maze
-def test_turning_robots_run_on_ticks_and_their_output_replays(tmp_path, capsys):
-    """LoRR's own robot model on its 2026 instance: forward moves and quarter turns each
-    take agentCounter ticks; the output is MAPF_T, a letter a tick, and replays."""
-    instance = read_instance(MAZE)
-    summary, output = run(tmp_path, "t", "--instance", str(MAZE), "--steps", str(TICKS),
-                          "--moves", "rotate")  # fmt: skip
-    printed = capsys.readouterr().out
-    assert "rotate moves" in printed
-    assert "turning robots" not in " ".join(summary["not_simulated"])
-    assert output["actionModel"] == "MAPF_T"
-    assert output["agentMaxCounter"] == instance.agent_counter
-    paths = [path.split(",") for path in output["actualPaths"]]
-    assert all(len(path) == TICKS for path in paths)
-    assert {"R", "C"} & {letter for path in paths for letter in path}  # robots turned
-    replayed = replay(output, instance.grid)
-    assert replayed.conflicts == []
-    assert summary["errands"] > 0
+def test_replayed_delays_must_come_from_an_output_file_of_the_instance(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    short = {"teamSize": 40, "delayIntervals": [[]] * 40, "makespan": 10}
+    cases = [
+        ("{", "Expecting property name"),
+        (
+            json.dumps({"teamSize": 3, "delayIntervals": [[], [], []]}),
+            "3 robots, maze-example_40 has 40",
+        ),
+        (json.dumps(short), "it covers 10 ticks, --steps asks for 300"),
+    ]
+    for text, message in cases:
+        bad.write_text(text)
+        assert main(["--instance", str(MAZE), "--steps", str(TICKS), "--delays-from", str(bad),
+                     "--out", str(tmp_path / "x"), "--quiet"]) == 2  # fmt: skip
+        assert message in capsys.readouterr().err
+    assert main(["--instance", str(MAZE), "--moves", "grid", "--delays-from", str(bad),
+                 "--out", str(tmp_path / "y"), "--quiet"]) == 2  # fmt: skip
+    assert "--delays-from replays a start-kit run's delays" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -165,5 +165,6 @@ def test_a_grid_above_the_trial_limit_is_refused_at_once_before_the_address(
 def test_the_address_is_checked_before_the_trials_are_built(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(sweep_cli, "expand_trials", lambda *a: pytest.fail("trials were built"))
-    assert sweep_cli.main(["--seeds", "0-9999", "--address", "127.0.0.1:1"]) == 1
+    assert sweep_cli.main(["--seeds", "0-9999", "--address", "127.0.0.1:1"]) == 2
     assert "--address 127.0.0.1:1: no Ray cluster answers" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -50,9 +50,10 @@ def test_spawned_workers_find_the_environments_by_their_module_ids(run_python):
 
 # ------------------------------------------------- nothing hangs, nothing is left
 def test_an_address_where_nothing_listens_fails_within_seconds(tmp_path, monkeypatch, capsys):
+    # A refused argument: exit status 2, as README's Limits promises for every command line.
     monkeypatch.chdir(tmp_path)
     started = time.monotonic()
-    assert sweep_cli.main(["--seeds", "1", "--address", "127.0.0.1:1"]) == 1
+    assert sweep_cli.main(["--seeds", "1", "--address", "127.0.0.1:1"]) == 2
     assert time.monotonic() - started < 10
     assert capsys.readouterr().err == (
         "python -m warehouse_phys.sweep: error: --address 127.0.0.1:1: no Ray cluster answers: "
@@ -71,10 +72,38 @@ def test_no_cluster_at_auto_is_one_line_and_leaves_no_folder(tmp_path, monkeypat
 
     monkeypatch.setattr(ray, "init", no_cluster)
     out = tmp_path / "sweep"
-    assert sweep_cli.main(["--seeds", "1", "--address", "auto", "--out", str(out)]) == 1
+    assert sweep_cli.main(["--seeds", "1", "--address", "auto", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err == f"python -m warehouse_phys.sweep: error: --address auto: {message}\n"
     assert not out.exists()
+    # Without --out: neither the sweep's timestamped folder nor sweeps/ is left.
+    monkeypatch.chdir(tmp_path)
+    assert sweep_cli.main(["--seeds", "1", "--address", "auto", "--quiet"]) == 2
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("address", "status"), [(None, 1), ("auto", 2), ("local", 1), ("10.0.0.1:6379", 2)]
+)
+def test_a_refused_address_exits_2_and_a_local_ray_that_cannot_start_1(
+    tmp_path, monkeypatch, capsys, address, status
+):
+    import ray
+
+    def cannot(**kwargs):
+        raise RuntimeError("no room for Ray's object store\nmore lines")
+
+    monkeypatch.setattr(ray, "init", cannot)
+    monkeypatch.setattr(sweep_ray, "check_address", lambda address: None)  # 10.0.0.1 answers
+    monkeypatch.setattr(sweep_cli, "check_address", lambda address: None)
+    monkeypatch.chdir(tmp_path)
+    given = [] if address is None else ["--address", address]
+    assert sweep_cli.main(["--seeds", "1", "--quiet", *given]) == status
+    where = "cannot start a local Ray" if address is None else f"--address {address}"
+    assert capsys.readouterr().err == (
+        f"python -m warehouse_phys.sweep: error: {where}: no room for Ray's object store\n"
+    )
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_sigterm_shuts_down_the_ray_it_started(monkeypatch):

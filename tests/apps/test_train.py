@@ -599,7 +599,8 @@ def test_a_neighbours_fleet_table_is_written_read_back_and_evaluated(tmp_path, c
     ("args", "message"),
     [
         (["--robots", "0"], "expected a number of robots from 1 to 10,000, got 0"),
-        (["--robots", "10000"], "at most 1024 robots, got 10000; --env grid takes more"),
+        # The physics world holds what the memory does: the floor's room is what refuses.
+        (["--robots", "10000"], "10000 robots need 10000 start cells; this floor has 20"),
         (
             [
                 "--env",
@@ -646,3 +647,24 @@ def test_the_readme_names_the_largest_square_floors_train_accepts(tmp_path, caps
         assert train_cli.main([*args, "--out", str(tmp_path / "out")]) == 2
         assert f"a {larger}x{larger} floor needs a Q-table" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_gif_of_a_large_floor_is_drawn_with_cells_that_fit_its_frame():
+    """A 90 x 90 floor's GIF was drawn at 64 px a cell: 100 MB frames, 17 GB at the peak
+    (the run was killed); its cells now shrink so that a frame is at most 1,024 px (down to
+    the renderer's 16 px a cell), and a large floor's GIF has fewer steps (128 MiB)."""
+    import numpy as np
+
+    from warehouse_phys.apps.runs import GIF_FRAME_BYTES, GIF_FRAME_PX, Floor, greedy_episode
+
+    episode = greedy_episode(Floor(rows=20, cols=20), "grid", np.zeros((20, 20, 20, 20, 4)),
+                             seed=0)  # fmt: skip
+    height, width = episode.frames[0].shape[:2]
+    assert width <= GIF_FRAME_PX  # the floor; below it, the status line
+    assert height <= GIF_FRAME_PX + 24
+    table = np.broadcast_to(np.zeros(4), (90, 90, 90, 90, 4))  # a table of no memory
+    big = greedy_episode(Floor(rows=90, cols=90), "grid", table, seed=0)
+    assert big.frames[0].shape[1] == 90 * 16  # the least cell
+    assert sum(frame.nbytes for frame in big.frames) <= GIF_FRAME_BYTES
+    small = greedy_episode(Floor(rows=4, cols=5), "grid", np.zeros((4, 5, 4, 5, 4)), seed=0)
+    assert small.frames[0].shape[1] == 5 * 64  # small floors as ever

@@ -158,3 +158,115 @@ def test_bad_arguments_and_actions_are_refused_in_one_line():
         with pytest.raises(error, match="robot_"):
             env.step(actions)
     assert env.ticks == 0  # nothing was run
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"min_gap": "0.7"}, TypeError, "min_gap must be a real number of cells, got '0.7'"),
+        ({"min_gap": b"0.7"}, TypeError, "min_gap must be a real number"),
+        ({"min_gap": True}, TypeError, "min_gap must be a real number"),
+        ({"min_gap": 0.5 + 0j}, TypeError, "min_gap must be a real number"),
+        ({"min_gap": [0.7]}, TypeError, "min_gap must be a real number"),
+        ({"min_gap": 10**400}, ValueError, r"min_gap must be in \(0, 1\] cells, got an integer"),
+        ({"min_gap": float("nan")}, ValueError, r"min_gap must be in \(0, 1\] cells, got nan"),
+        ({"seed": "1"}, TypeError, "seed must be an integer, got '1'"),
+        ({"seed": b"1"}, TypeError, "seed must be an integer"),
+        ({"seed": False}, TypeError, "seed must be an integer"),
+        ({"seed": 1j}, TypeError, "seed must be an integer"),
+        ({"seed": [1]}, TypeError, "seed must be an integer"),
+        ({"seed": 10**400}, ValueError, r"seed must be 0 to 9,223,372,036,854,775,807, got an "
+                                        r"integer of 401 digits"),
+        ({"seed": -1}, ValueError, "seed must be 0 to"),
+        ({"num_robots": 10**400}, ValueError, r"^num_robots must be 1 to 1,000,000, got an "
+                                              r"integer of 401 digits$"),
+        ({"physics_threads": 0}, ValueError, "threads must be from 1 to 64"),
+    ],
+)  # fmt: skip
+def test_the_async_fleets_own_arguments_are_refused_by_name(kwargs, error, message):
+    with pytest.raises(error, match=message):
+        async_fleet.parallel_env(layout=FLOOR, **kwargs)
+
+
+@pytest.mark.parametrize("action", [np.timedelta64(1), np.timedelta64(1, "s"), True, 1.0, "1",
+                                    None, np.ma.masked, 2, -1, 10**400])  # fmt: skip
+def test_a_bad_action_is_refused_naming_the_robot_and_nothing_changes(action):
+    env = async_fleet.parallel_env(layout=FLOOR, num_robots=2)
+    env.reset(seed=0)
+    with pytest.raises((TypeError, ValueError), match=r"^robot_1's action .*(STOP|masked)"):
+        env.step({"robot_0": 1, "robot_1": action})
+    assert env.ticks == 0
+    aec = async_fleet.env(layout=FLOOR, num_robots=2)
+    aec.reset(seed=0)
+    aec.step(1)  # robot_0's: fine
+    with pytest.raises((TypeError, ValueError), match=r"^robot_1's action"):
+        aec.step(action)  # refused at once, not stored to fail later
+    assert aec.agent_selection == "robot_1"
+    aec.step(1)  # the episode goes on
+    aec.step(1)
+    assert aec.unwrapped.ticks == 1
+
+
+def test_the_aec_form_refuses_the_battery_s_seven_at_once_and_keeps_stepping():
+    aec = async_fleet.env(layout=FLOOR, num_robots=3)
+    aec.reset(seed=0)
+    with pytest.raises(ValueError, match=r"robot_0's action must be 0 \(STOP\) or 1 \(GO\), got 7"):
+        aec.step(7)
+    for _ in range(9):  # three whole ticks, no error from the last robot's turn on
+        aec.step(1)
+    assert aec.unwrapped.ticks == 3
+
+
+def test_reset_refuses_options_it_does_not_know_but_lets_pettingzoos_probe_through():
+    env = async_fleet.parallel_env(layout=FLOOR, num_robots=2)
+    with pytest.raises(ValueError, match=r"unknown reset option\(s\) 'x'; known: 'delays'"):
+        env.reset(options={"x": 1})
+    with pytest.raises(TypeError, match="reset options must be a dict or None"):
+        env.reset(options=[("delays", None)])
+    env.reset(seed=0, options={"options": 1})  # PettingZoo's API test passes this
+    env.reset(seed=0, options={"delays": None})
+    assert env.delays is None
+
+
+@pytest.mark.parametrize(("physics", "moves", "threads"),
+                         [(False, "grid", 1), (True, "grid", 1), (True, "rotate", 2)])  # fmt: skip
+def test_the_array_form_runs_the_same_episode_as_the_dicts(physics, moves, threads):
+    kwargs = {"layout": FLOOR, "num_robots": 8, "ticks_per_move": 3, "delays": DELAYS,
+              "max_cycles": 60, "physics": physics, "moves": moves}  # fmt: skip
+    if physics:
+        kwargs["physics_threads"] = threads
+    dicts, arrays = async_fleet.parallel_env(**kwargs), async_fleet.parallel_env(**kwargs)
+    observations, infos = dicts.reset(seed=4)
+    table, columns = arrays.reset_arrays(seed=4)
+    rng = np.random.default_rng(4)
+    while dicts.agents:
+        assert np.array_equal(np.stack(list(observations.values())), table)
+        for key, column in columns.items():
+            assert [info[key] for info in infos.values()] == column.tolist(), key
+        actions = (rng.random(8) < 0.9).astype(np.int64)
+        observations, rewards, terminations, truncations, infos = dicts.step(
+            dict(zip(dicts.agents, actions.tolist(), strict=True)))  # fmt: skip
+        step = arrays.step_arrays(actions)
+        table, columns = step.observations, step.infos
+        assert list(rewards.values()) == step.rewards.tolist()
+        assert list(terminations.values()) == step.terminations.tolist()
+        assert list(truncations.values()) == step.truncations.tolist()
+    assert not arrays.agents
+    assert arrays.errands_done == dicts.errands_done > 0
+    if physics:
+        assert arrays.safety.summary() == dicts.safety.summary()
+        assert {"closest_approach", "body_contacts", "wall_contacts"} <= set(infos["robot_0"])
+        assert dicts.safety.body_contacts == dicts.safety.wall_contacts == 0
+        assert dicts.safety.closest_approach >= dicts.safety.bound
+        arrays.reset_arrays(seed=1)
+        with pytest.raises(ValueError, match=r"actions must be 0 \(STOP\) or 1 \(GO\): robot_3"):
+            arrays.step_arrays(np.array([1, 1, 1, 2, 1, 1, 1, 1]))
+
+
+def test_pettingzoos_suites_pass_with_the_bodies_in_two_regions():
+    kwargs = {"layout": FLOOR, "num_robots": 4, "ticks_per_move": 3, "delays": DELAYS,
+              "max_cycles": 40, "physics": True, "moves": "rotate",
+              "physics_threads": 2}  # fmt: skip
+    quietly(parallel_api_test, async_fleet.parallel_env(**kwargs), num_cycles=60)
+    quietly(parallel_seed_test, functools.partial(async_fleet.parallel_env, **kwargs), 30)
+    quietly(api_test, async_fleet.env(**kwargs), num_cycles=30)

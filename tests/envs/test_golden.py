@@ -8,6 +8,7 @@ from tests.envs.golden import GOLDEN_FILE, SCENARIOS, run
 from tests.envs.golden_physics import FLEET_SCENARIOS, VECTOR_SCENARIOS, run_fleet, run_vector
 from tests.envs.golden_physics import GOLDEN_FILE as GOLDEN_PHYSICS_FILE
 from warehouse_phys.physics import batched as batched_physics
+from warehouse_phys.physics import body_io
 
 
 @pytest.mark.parametrize(("name", "env_id", "kwargs", "seed", "n_actions"), SCENARIOS,
@@ -69,7 +70,7 @@ def test_without_pymunks_internals_the_physics_worlds_restart_alike(monkeypatch)
     def cannot(space: object) -> None:
         raise RuntimeError("this pymunk cannot clear a space's time step")
 
-    monkeypatch.setattr(batched_physics, "clear_time_step", cannot)
+    monkeypatch.setattr(body_io, "clear_time_step", cannot)  # where the world clears it
     name, kwargs, seeds, steps = FLEET_SCENARIOS[0]
     expected = _golden(name)
     trajectory = ["cells", "paths", "snap_error", "reward"]

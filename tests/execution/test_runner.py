@@ -92,3 +92,38 @@ def test_bad_arguments_are_refused_in_one_line():
     run = Execution(FLOOR, starts)
     with pytest.raises(ValueError, match="hold must be"):
         run.tick(starts, np.array([1, 0]))
+
+
+@pytest.mark.parametrize("turning", [False, True])
+def test_the_guided_planner_runs_on_ticks_as_safely_and_bit_identically(turning):
+    """``planner="guided"``: its windows have no requests, so robots a delay holds are held
+    after its plan (:func:`held_back`); every tick still keeps the gap."""
+    starts, goals = fleet(12, 5)
+    headings = np.zeros(12, dtype=np.int64) if turning else None
+
+    def trace():
+        run = Execution(FLOOR, starts, ticks_per_move=3, delays=delays(0.05), seed=2,
+                        planner="guided", headings=headings)  # fmt: skip
+        world = AsyncGrid(FLOOR, run.executor.left, run.executor.ticks_needed, headings)
+        cells = []
+        for _ in range(120):
+            held, centres = world.held(), world.centres()
+            outcome = run.tick(goals)
+            world.step(outcome.report.go, outcome.report.heading, outcome.delayed,
+                       outcome.report.facing)  # fmt: skip
+            assert gap_conflicts((held, world.held()), (centres, world.centres()),
+                                 run.executor.min_gap) == 0  # fmt: skip
+            assert swap_conflicts(held, world.held()) == 0
+            cells.append(run.executor.left.copy())
+        return np.array(cells), run
+
+    first, run = trace()
+    assert type(run.planner).__name__ == "GuidedPIBT"
+    assert (first == trace()[0]).all()
+    assert (first[-1] != first[0]).any()
+
+
+def test_a_planner_by_an_unknown_name_is_refused():
+    starts, _ = fleet(3, 1)
+    with pytest.raises(ValueError, match="unknown planner 'lacam'"):
+        Execution(FLOOR, starts, planner="lacam")

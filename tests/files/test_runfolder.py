@@ -2,7 +2,14 @@
 
 import pytest
 
-from warehouse_phys.files.runfolder import RunFolder, RunFolderError, RunWriteError
+from warehouse_phys.files import runfolder
+from warehouse_phys.files.runfolder import (
+    RunFolder,
+    RunFolderError,
+    RunWriteError,
+    make_folders,
+    remove_empty,
+)
 
 FILES = ("table.npz", "summary.json")
 
@@ -58,3 +65,50 @@ def test_a_name_too_long_and_a_dangling_link_are_refused_in_one_line(tmp_path):
     with pytest.raises(RunFolderError, match=r"is a link to .*nowhere/run, which does not exist"):
         RunFolder(link, ["a"], new=True).open()
     assert not (tmp_path / "nowhere").exists()
+
+
+@pytest.mark.parametrize("new", [True, False])
+def test_a_failed_first_run_removes_the_parents_it_made_and_no_others(tmp_path, new):
+    path = tmp_path / "runs" / "day" / "run"
+    with pytest.raises(KeyboardInterrupt), RunFolder(path, FILES, new=new):
+        raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []  # runs/ and runs/day/ went with the run
+    other = tmp_path / "runs" / "other"
+    other.mkdir(parents=True)
+    with pytest.raises(KeyboardInterrupt), RunFolder(path, FILES, new=new):
+        raise KeyboardInterrupt
+    assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == ["other"]  # not its own
+    with RunFolder(path, FILES, new=new) as folder:
+        folder.write("summary.json", lambda file: file.write_text("{}"))
+    with pytest.raises(KeyboardInterrupt), RunFolder(tmp_path / "runs" / "day" / "b", FILES):
+        raise KeyboardInterrupt
+    assert sorted(p.name for p in (tmp_path / "runs" / "day").iterdir()) == ["run"]
+
+
+def test_make_folders_lists_what_it_made_and_remove_empty_stops_at_a_full_one(tmp_path):
+    made = make_folders(tmp_path / "a" / "b" / "c", exist_ok=False)
+    assert made == [tmp_path / "a" / "b" / "c", tmp_path / "a" / "b", tmp_path / "a"]
+    assert make_folders(tmp_path / "a" / "b" / "c", exist_ok=True) == []
+    with pytest.raises(FileExistsError):
+        make_folders(tmp_path / "a" / "b" / "c", exist_ok=False)
+    (tmp_path / "a" / "b" / "kept").touch()
+    remove_empty(made)
+    assert sorted(p.name for p in (tmp_path / "a" / "b").iterdir()) == ["kept"]
+    remove_empty(made)  # gone already, or full: nothing raises
+
+
+def test_a_parent_removed_while_the_folder_is_made_is_made_again(tmp_path, monkeypatch):
+    # Another run that made runs/ ends empty and removes it between our two mkdirs.
+    real = runfolder.Path.mkdir
+    removed = []
+
+    def mkdir(self, *args, **kwargs):
+        real(self, *args, **kwargs)
+        if self.name == "runs" and not removed:
+            removed.append(self)
+            self.rmdir()
+
+    monkeypatch.setattr(runfolder.Path, "mkdir", mkdir)
+    with RunFolder(tmp_path / "runs" / "run", FILES, new=True) as folder:
+        assert folder.path.is_dir()
+    assert removed == [tmp_path / "runs"]

@@ -307,5 +307,74 @@ def test_an_instance_map_longer_than_its_header_says_is_refused_with_the_headers
     path = write_files(tmp_path)
     with (tmp_path / "maps/f.map").open("a") as map_file:
         map_file.write("." * 10_000)
-    with pytest.raises(ValueError, match=r"f\.map: 10,\d{3} bytes, longer than a map of 3 x 5"):
+    with pytest.raises(ValueError, match=r"f\.map: 10,\d{3} bytes, longer than 2 maps of 3 x 5"):
+        read_instance(path)
+
+
+def test_an_instance_whose_map_file_holds_its_map_twice_is_read_with_a_warning(tmp_path):
+    # The 2023 examples' Paris maps: the competition reads `height` rows, ignores the rest.
+    path = write_files(tmp_path)
+    map_file = tmp_path / "maps/f.map"
+    once = read_instance(path).grid.shelves
+    map_file.write_text(map_file.read_text() * 2)
+    with pytest.warns(UserWarning, match=r"f\.map: 7 lines after the header's 3 rows ignored"):
+        assert read_instance(path).grid.shelves == once
+
+
+HUGE = "1" + "0" * 400  # 401 digits
+
+
+@pytest.mark.parametrize(
+    ("field", "message"),
+    [
+        ("numTasksReveal", "numTasksReveal is out of range: an integer of 401 digits"),
+        ("agentSize", "agentSize is out of range: an integer of 401 digits"),
+        ("teamSize", "teamSize is out of range: an integer of 401 digits"),
+        ("agentCounter", "agentCounter is out of range: an integer of 5,000 digits"),
+    ],
+)
+def test_a_huge_integer_in_a_field_is_refused_naming_the_file_and_the_field(
+    tmp_path, field, message
+):
+    path = write_files(tmp_path)
+    digits = "7" * 5000 if "5,000" in message else HUGE
+    path.write_text(path.read_text()[:-1] + f', "{field}": {digits}}}')
+    with pytest.raises(ValueError, match=message) as error:
+        read_instance(path)
+    assert str(error.value).startswith(f"{path}: ")
+
+
+def test_a_huge_p_delay_and_a_json_nested_deep_are_refused_naming_the_file(tmp_path):
+    path = write_files(tmp_path)
+    data = json.loads(path.read_text())
+    path.write_text(json.dumps({**data, "delayConfig": {**DELAYS, "pDelay": 0}}).replace(
+        '"pDelay": 0', f'"pDelay": {HUGE}'))  # fmt: skip
+    with pytest.raises(ValueError, match=f"^{path}: delayConfig pDelay is out of range: an "
+                                         "integer of 401 digits$"):  # fmt: skip
+        read_instance(path)
+    path.write_text('{"a": ' + "[" * 100_000 + "]" * 100_000 + "}")
+    with pytest.raises(ValueError, match=f"^{path}: JSON nested too deeply"):
+        read_instance(path)
+    from warehouse_phys.execution.delays import DelayConfig
+
+    with pytest.raises(ValueError, match=r"p_delay .* must be finite, got an integer of 1,329"):
+        DelayConfig.from_json({**DELAYS, "pDelay": int(HUGE)})
+
+
+@pytest.mark.parametrize("relative", ["../../../etc/passwd", "/etc/passwd", "maps/../../x.map"])
+def test_a_file_outside_the_instances_folder_is_refused_unread(tmp_path, relative):
+    inner = tmp_path / "inner"
+    inner.mkdir()
+    (tmp_path / "x.map").write_text("secret first line\n")
+    path = write_files(inner, data={"mapFile": relative})
+    with pytest.raises(ValueError, match=f"mapFile {relative!r} leads out of the instance's"):
+        read_instance(path)
+    write_files(inner, data={"agentFile": "maps/../a.agents"})  # inside, by a detour
+    read_instance(inner / "x.json")
+
+
+def test_a_start_line_of_two_locations_is_refused_naming_the_line(tmp_path):
+    path = write_files(tmp_path, agents="3\n0\n2,3\n14\n")
+    with pytest.raises(ValueError, match=r"a.agents, line 3: a start is one location "
+                                         r"\(row \* width \+ col\), got '2,3'"):  # fmt: skip
         read_instance(path)

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warehouse_phys.planners.lanes import NO_LANE, one_way_lanes
+from warehouse_phys.planners.lanes import NO_LANE, floor_lanes, one_way_lanes
 from warehouse_phys.world.grid import ACTION_DELTAS, Action, WarehouseGrid
 
 #: A grid of aisles one cell wide round six blocks of shelves (rows 2 and 4), walled.
@@ -96,3 +96,48 @@ def test_a_lane_runs_along_a_corridor_one_cell_wide(rows, cols, density, seed):
 def test_a_floor_that_is_not_a_boolean_mask_is_refused(free):
     with pytest.raises(ValueError, match="free must be a"):
         one_way_lanes(free)
+    with pytest.raises(ValueError, match="free must be a"):
+        floor_lanes(free)
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    rows=st.integers(1, 12),
+    cols=st.integers(1, 12),
+    density=st.floats(0.0, 0.7),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_floor_lanes_run_one_way_along_every_row_and_column(rows, cols, density, seed):
+    """On any floor: every cell with a free neighbour left or right has an east-west lane,
+    every one with a free neighbour above or below a north-south lane, and no other; all
+    the lanes of a row run one way, and so do a column's; a corridor cell's lane is its
+    :func:`one_way_lanes` lane; rows without corridors run by their parity, as columns."""
+    free = np.random.default_rng(seed).random((rows, cols)) >= density
+    ways = np.full((rows, cols, 2), NO_LANE, dtype=np.int8)
+    ways[free] = floor_lanes(free)
+    corridor = np.full(free.shape, NO_LANE, dtype=np.int8)
+    corridor[free] = one_way_lanes(free)
+    walled = np.pad(free, 1)
+    sideways = walled[1:-1, :-2] | walled[1:-1, 2:]
+    upright = walled[:-2, 1:-1] | walled[2:, 1:-1]
+    assert ((ways[..., 0] != NO_LANE) == (free & sideways)).all()
+    assert ((ways[..., 1] != NO_LANE) == (free & upright)).all()
+    for axis, line_of in ((0, lambda r: ways[r, :, 0]), (1, lambda c: ways[:, c, 1])):
+        for line in range(free.shape[axis]):
+            cells = line_of(line)
+            assert len(set(cells[cells != NO_LANE].tolist())) <= 1
+    in_row = np.isin(corridor, (Action.LEFT, Action.RIGHT))
+    in_col = np.isin(corridor, (Action.DOWN, Action.UP))
+    assert (ways[..., 0][in_row] == corridor[in_row]).all()
+    assert (ways[..., 1][in_col] == corridor[in_col]).all()
+    for r in np.flatnonzero(~in_row.any(axis=1)):
+        assert set(ways[r, :, 0].tolist()) <= {NO_LANE, (Action.LEFT, Action.RIGHT)[r % 2]}
+    for c in np.flatnonzero(~in_col.any(axis=0)):
+        assert set(ways[:, c, 1].tolist()) <= {NO_LANE, (Action.DOWN, Action.UP)[c % 2]}
+
+
+def test_open_floor_lanes_alternate_row_by_row_and_column_by_column():
+    ways = np.full((4, 4, 2), NO_LANE, dtype=np.int8)
+    ways[np.ones((4, 4), dtype=bool)] = floor_lanes(np.ones((4, 4), dtype=bool))
+    assert ways[:, 0, 0].tolist() == [Action.LEFT, Action.RIGHT] * 2
+    assert ways[0, :, 1].tolist() == [Action.DOWN, Action.UP] * 2

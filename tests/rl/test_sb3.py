@@ -138,11 +138,15 @@ def test_bad_arguments_are_refused():
 
 
 # ---------------------------------------------------------------- the recipes
-def readme_sb3_blocks():
-    """The README's Stable-Baselines3 blocks (plain fences: ``test_packaging`` runs only the
-    ``python`` ones, and these need the extra), by the algorithm they import."""
+#: The docs page that holds the Stable-Baselines3 examples.
+SB3_PAGE = ROOT / "docs" / "single-robot.md"
+
+
+def docs_sb3_blocks():
+    """The docs' Stable-Baselines3 blocks (plain fences: ``tests/test_docs.py`` runs only
+    the ``python`` ones, and these need the extra), by the algorithm they import."""
     blocks, lines, plain = [], None, False  # lines: the open block's, if one is open
-    for line in (ROOT / "README.md").read_text().splitlines(keepends=True):
+    for line in SB3_PAGE.read_text().splitlines(keepends=True):
         if lines is None:
             if line.startswith("```"):
                 lines, plain = [], line == "```\n"
@@ -183,40 +187,87 @@ def run_block(block):
     return names
 
 
-def test_the_readme_blocks_are_the_docstring_recipes():
-    readme, recipes = readme_sb3_blocks(), docstring_recipes()
-    assert set(readme) == {"PPO", "DQN"}
-    assert readme["PPO"] in recipes
-    assert readme["DQN"] in recipes
+def recipe(algorithm):
+    """The module docstring's first recipe that trains ``algorithm`` (the docs hold it)."""
+    imports = f"from stable_baselines3 import {algorithm}\n"
+    return next(block for block in docstring_recipes() if imports in block)
+
+
+def run_pinning_recipe(block, capsys):
+    """Run ``block`` with PyTorch on two threads, as on a two-core machine by default; it
+    must pin one itself. Returns its names and what it printed."""
+    torch.set_num_threads(2)
+    names = run_block(block)
+    assert torch.get_num_threads() == 1  # the recipe pinned it
+    return names, capsys.readouterr().out
+
+
+def test_the_docs_blocks_are_the_docstring_recipes():
+    docs = docs_sb3_blocks()
+    assert set(docs) == {"PPO", "DQN"}
+    assert docs["PPO"] == recipe("PPO")
+    assert docs["DQN"] == recipe("DQN")
 
 
 @pytest.mark.slow
-def test_the_readme_ppo_block_learns_the_default_floor_as_its_comment_says():
-    block = readme_sb3_blocks()["PPO"]
+def test_the_ppo_recipe_pins_one_thread_and_prints_what_its_comment_says(capsys):
+    block = recipe("PPO")
     assert "# all 12 targets reached, at least 10 by a shortest path" in block
-    model = run_block(block)["model"]
+    names, printed = run_pinning_recipe(block, capsys)
+    model = names["model"]
     assert model.num_timesteps >= 20_000
     shortest, reached = greedy_results(model, GRID_ID, observation="onehot")
     assert reached == 12  # in about 5 s on one core
     assert shortest >= 10
+    assert printed == names["evaluate_model"](model, observation="onehot").summary() + "\n"
+    assert printed.startswith("all 12 targets reached")
 
 
 @pytest.mark.slow
-def test_the_readme_dqn_block_stays_optimal_at_100k_steps():
+def test_the_dqn_recipe_stays_optimal_at_100k_steps_and_says_so(capsys):
     # With the sparse reward alone DQN's defaults learn this floor by 50k steps and
     # lose it again by 100k (0 of 12 targets); with a step penalty they keep it.
     # About a minute on one core.
-    block = readme_sb3_blocks()["DQN"]
-    assert "# all 12 targets by a shortest path" in block
-    model = run_block(block)["model"]
-    assert greedy_results(model, GRID_ID) == (12, 12)
+    block = recipe("DQN")
+    assert "# all 12 targets reached by a shortest path" in block
+    names, printed = run_pinning_recipe(block, capsys)
+    assert greedy_results(names["model"], GRID_ID) == (12, 12)
+    assert printed == "all 12 targets reached by a shortest path\n"
+
+
+# ------------------------------------------------------------- evaluate_model
+@pytest.mark.parametrize(
+    ("algorithm", "env_id", "kwargs"),
+    [
+        ("PPO", GRID_ID, {"observation": "onehot"}),
+        ("DQN", GRID_ID, {}),
+        ("PPO", PHYSICS_ID, {"layout": "maze"}),
+        ("DQN", GRID_ID, {"layout": "depot", "observation": "onehot"}),
+    ],
+)
+def test_evaluate_model_is_the_policy_played_episode_by_episode(algorithm, env_id, kwargs):
+    # Untrained networks: policies of every shape, most targets missed or reached late.
+    from stable_baselines3 import DQN
+
+    envs = vec_env(env_id, num_envs=2, seed=0, **kwargs)
+    model = {"PPO": PPO, "DQN": DQN}[algorithm]("MlpPolicy", envs, seed=3, device="cpu")
+    evaluation = sb3_module.evaluate_model(model, env_id, **kwargs)
+    assert (evaluation.optimal, evaluation.reached) == greedy_results(model, env_id, **kwargs)
+    assert len(evaluation.results) == len(gym.make(env_id, **kwargs).unwrapped.grid.target_cells)
+
+
+def test_evaluate_model_refuses_a_floor_too_big_for_its_table(monkeypatch):
+    monkeypatch.setattr(sb3_module, "TRAINING_MEMORY_BUDGET", 1000)
+    model = PPO("MlpPolicy", vec_env(GRID_ID, num_envs=1, seed=0), device="cpu")
+    with pytest.raises(ValueError, match=r"a 4x5 floor's table of actions would take more than"):
+        sb3_module.evaluate_model(model)
 
 
 def test_every_other_recipe_of_the_module_docstring_runs_as_written():
-    """The recipes the README does not hold (the fleet's), run in order in one namespace,
-    as a reader pasting them into one session would; the README's are run above."""
-    readme = set(readme_sb3_blocks().values())
-    others = [recipe for recipe in docstring_recipes() if recipe not in readme]
+    """The recipes the docs do not hold (the fleet's), run in order in one namespace,
+    as a reader pasting them into one session would; the docs' are run above."""
+    in_docs = {recipe("PPO"), recipe("DQN")}
+    others = [block for block in docstring_recipes() if block not in in_docs]
     assert len(others) == 2  # SuperSuit with one shared policy; black_death
     names = {"__name__": "recipe"}
     with warnings.catch_warnings():

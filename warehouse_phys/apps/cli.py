@@ -2,25 +2,32 @@
 
 ``python -m warehouse_phys.train`` and ``python -m warehouse_phys.play`` both
 pick an environment with ``--env grid|phys`` and a floor with ``--rows``,
-``--cols`` or ``--layout``; this module parses those the same way for both.
+``--cols`` or ``--layout``; this module parses those the same way for both. Every
+command prints a warning as one line (:func:`warnings_in_one_line`).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
-from collections.abc import Iterator, Sequence
+import functools
+import sys
+import warnings
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn, ParamSpec
 
 from warehouse_phys.apps.interrupts import deferred
 from warehouse_phys.apps.runs import ENVIRONMENTS, Floor
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.layout_text import MAX_SIDE, MIN_SIDE
 from warehouse_phys.world.layouts import FLEET_PRESETS, PRESETS, read_movingai
+from warehouse_phys.world.maps import MAPS, map_path
 
 if TYPE_CHECKING:
     from warehouse_phys.files.runfolder import RunFolder
+
+P = ParamSpec("P")
 
 DEFAULT_ENV = "phys"
 #: Most robots a command takes; the floor may allow fewer (a clear error says so).
@@ -39,24 +46,71 @@ def written_note(folder: RunFolder | None) -> str:
     return f"{names} {'is' if len(folder.written) == 1 else 'are'} complete in {folder.path}"
 
 
+def warnings_in_one_line(prog: str) -> Callable[[Callable[P, int]], Callable[P, int]]:
+    """A command's ``main`` whose warnings print as one line each on stderr,
+    ``<prog>: warning: <message>`` (its first line), rather than Python's two (where the
+    warning was raised, and that line's source). Which warnings show is left to the
+    warning filters (``python -W``), as ever."""
+
+    def one_line(main: Callable[P, int]) -> Callable[P, int]:
+        @functools.wraps(main)
+        def run(*args: P.args, **kwargs: P.kwargs) -> int:
+            with warnings.catch_warnings():  # the way warnings show is put back after
+                warnings.showwarning = functools.partial(_show_warning, prog)
+                return main(*args, **kwargs)
+
+        return run
+
+    return one_line
+
+
+def _show_warning(
+    prog: str,
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: Any = None,
+    line: str | None = None,
+) -> None:
+    text = str(message).strip().splitlines() or [category.__name__]
+    print(f"{prog}: warning: {text[0]}", file=sys.stderr if file is None else file)
+
+
 class ArgumentParser(argparse.ArgumentParser):
     """An ``argparse`` parser that raises :class:`UsageError` instead of exiting."""
 
     def error(self, message: str) -> NoReturn:
+        """Raise :class:`UsageError` with ``message`` (argparse's own prints it and exits)."""
         raise UsageError(message)
 
 
+#: Largest integer a command-line option takes when it names no maximum of its own: a
+#: 64-bit integer (the numpy arrays and generators downstream hold no more).
+MAX_OPTION_INT = 2**63 - 1
+
+
 def bounded_int(minimum: int, what: str, maximum: int | None = None) -> Any:
-    """An argument type: an integer of at least ``minimum`` (and at most ``maximum``),
-    described as ``what`` in errors."""
+    """An argument type: an integer of at least ``minimum`` and at most ``maximum``
+    (default :data:`MAX_OPTION_INT`), described as ``what`` in errors; an integer too long
+    to show is described by its number of digits."""
+    top = MAX_OPTION_INT if maximum is None else maximum
 
     def parse(text: str) -> int:
+        digits = text.strip().lstrip("+-")
+        if digits.isdigit() and len(digits) > 30:  # never echoed, nor made an int past 4,300
+            limit = "" if maximum is not None else f" (at most {MAX_OPTION_INT:,})"
+            raise argparse.ArgumentTypeError(
+                f"expected {what}{limit}, got an integer of {len(digits):,} digits"
+            )
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
-        if value < minimum or (maximum is not None and value > maximum):
-            raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+            shown = text if len(text) <= 40 else f"{text[:40]}..."
+            raise argparse.ArgumentTypeError(f"expected {what}, got {shown!r}") from None
+        if value < minimum or value > top:
+            limit = "" if maximum is not None or value < minimum else f" (at most {top:,})"
+            raise argparse.ArgumentTypeError(f"expected {what}{limit}, got {value}")
         return value
 
     return parse
@@ -107,8 +161,8 @@ def add_floor_arguments(parser: argparse.ArgumentParser, *, table_note: str = ""
         "--layout",
         metavar="NAME_OR_FILE",
         help=f"a warehouse layout: a preset ({', '.join([*PRESETS, *FLEET_PRESETS])}), a "
-        "MovingAI .map file or a text file of rows ('.' floor, '#' shelf, 'P' package "
-        "cell, 'S' start)",
+        f"benchmark map the package ships ({', '.join(MAPS)}), a MovingAI .map file or a "
+        "text file of rows ('.' floor, '#' shelf, 'P' package cell, 'S' start)",
     )
 
 
@@ -128,7 +182,8 @@ def floor_from_args(args: argparse.Namespace) -> Floor:
 
 
 def floor_from_layout(name_or_file: str, *, max_steps: int | None = None) -> Floor:
-    """The :class:`Floor` of a layout preset's name or of a layout text file.
+    """The :class:`Floor` of a layout preset's name, a shipped benchmark map's name
+    (:data:`~warehouse_phys.world.maps.MAPS`), a MovingAI map file or a layout text file.
 
     Raises:
         UsageError: for an unknown preset, or a file that cannot be read or is
@@ -139,7 +194,7 @@ def floor_from_layout(name_or_file: str, *, max_steps: int | None = None) -> Flo
     if name_or_file in FLEET_PRESETS:
         layout = FLEET_PRESETS[name_or_file]
         return Floor(layout=layout, label=name_or_file, max_steps=max_steps)
-    path = Path(name_or_file)
+    path = map_path(name_or_file) if name_or_file in MAPS else Path(name_or_file)
     if path.suffix == ".map":  # a MovingAI benchmark map
         try:
             grid = read_movingai(path)
@@ -149,7 +204,8 @@ def floor_from_layout(name_or_file: str, *, max_steps: int | None = None) -> Flo
     if not path.is_file():
         raise UsageError(
             f"--layout {name_or_file!r} is neither a preset "
-            f"({', '.join([*PRESETS, *FLEET_PRESETS])}) nor a file"
+            f"({', '.join([*PRESETS, *FLEET_PRESETS])}), a shipped map ({', '.join(MAPS)}) "
+            "nor a file"
         )
     try:
         lines = [line.rstrip() for line in path.read_text(encoding="utf-8").splitlines()]
@@ -173,7 +229,8 @@ def opened_run_folder(
     """The run folder of a command, open for the ``with`` block: ``out`` (``--out``; an
     earlier run's ``files`` in it are replaced only with ``overwrite``), or else the new
     folder ``new``. It is closed as the block ends; when the block raises (an interrupt
-    included), a folder this run created and wrote nothing into is removed. The folder is
+    included), a folder this run created and wrote nothing into is removed, with the
+    parents it created for it while they are empty (``runs/`` on a first run). The folder is
     created and taken charge of with interrupts deferred
     (:func:`~warehouse_phys.apps.interrupts.deferred`), so that a SIGTERM or Ctrl-C at
     that moment cannot leave an empty folder behind.

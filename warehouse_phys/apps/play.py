@@ -44,6 +44,7 @@ from warehouse_phys.apps.cli import (
     add_robots_argument,
     bounded_int,
     floor_from_args,
+    warnings_in_one_line,
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
 from warehouse_phys.drawing.display import NoDisplayError, check_display, import_pygame
@@ -332,6 +333,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 @stops_on_sigterm
+@warnings_in_one_line(PROG)
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status (130 on Ctrl-C, 143 on SIGTERM: the
     window closes, nothing is written)."""

@@ -23,6 +23,7 @@ import numpy as np
 
 import warehouse_phys
 from warehouse_phys.drawing.animation import Animation
+from warehouse_phys.drawing.render import DEFAULT_CELL_PX, MIN_CELL_PX
 from warehouse_phys.envs.fleet import WarehouseFleetEnv, parallel_env
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.files.runfolder import RunFolder
@@ -59,6 +60,12 @@ GIF_FILE = "episode.gif"
 RUN_FILES = (TABLE_FILE, CURVE_FILE, GIF_FILE, SUMMARY_FILE)
 #: The greedy episode in the GIF stops after this many steps, should the policy wander [steps].
 GIF_MAX_STEPS = 60
+#: Longest side of the floor in a training GIF's frame [px] (the status line is below it):
+#: a large floor is drawn with smaller cells, down to the renderer's least (a 90 x 90 floor
+#: at 64 px a cell made 100 MB frames, and its GIF took 17 GB).
+GIF_FRAME_PX = 1024
+#: Most memory the GIF's frames may take [bytes]: a large floor's GIF has fewer steps.
+GIF_FRAME_BYTES = 128 * 2**20
 #: The learning curve in ``summary.json``: at most this many points [1].
 CURVE_POINTS = 200
 #: The seeds a fleet's policies are evaluated with, the same for every run.
@@ -102,8 +109,9 @@ class Floor:
             return physics_id if kind == "phys" else grid_id
         return ENVIRONMENTS[kind]
 
-    def make(self, kind: str, render_mode: str | None = None) -> gym.Env:
-        """The ``kind`` ("grid" or "phys") environment on this floor, through ``gym.make``.
+    def make(self, kind: str, render_mode: str | None = None, **drawing: int) -> gym.Env:
+        """The ``kind`` ("grid" or "phys") environment on this floor, through ``gym.make``
+        (``drawing``: ``cell_px``, the size of a drawn cell).
 
         Ids are given in ``warehouse_phys:`` form, which imports the package in
         any process (a Ray worker, a spawned subprocess) before looking them up.
@@ -111,13 +119,14 @@ class Floor:
         limit = self.time_limit()
         env_id = f"warehouse_phys:{self.env_id(kind)}"
         if self.preset is not None:
-            return gym.make(env_id, render_mode=render_mode, max_episode_steps=limit)
+            return gym.make(env_id, render_mode=render_mode, max_episode_steps=limit, **drawing)
         if self.layout is not None:
             return gym.make(
                 env_id,
                 layout=list(self.layout),
                 render_mode=render_mode,
                 max_episode_steps=limit,
+                **drawing,
             )
         return gym.make(
             env_id,
@@ -125,6 +134,7 @@ class Floor:
             grid_cols=self.cols or 5,
             render_mode=render_mode,
             max_episode_steps=limit,
+            **drawing,
         )
 
     def make_fleet(
@@ -331,9 +341,13 @@ def fleet_comparison(env: WarehouseFleetEnv, q: Any) -> dict[str, FleetEvaluatio
 def greedy_episode(floor: Floor, kind: str, q: Any, *, seed: int) -> EpisodeRecording:
     """The greedy policy's episode with ``seed``, recorded for the GIF: smooth motion
     in the physics-backed environment, one jump per step in the grid twin."""
-    env = floor.make(kind, render_mode="rgb_array")
+    grid = floor.grid()
+    cell_px = min(DEFAULT_CELL_PX, max(MIN_CELL_PX, GIF_FRAME_PX // max(grid.rows, grid.cols)))
+    frame_bytes = 3 * cell_px**2 * (grid.rows + 1) * grid.cols  # a row more: the status line
+    steps = max(1, min(GIF_MAX_STEPS, GIF_FRAME_BYTES // frame_bytes - 1))
+    env = floor.make(kind, render_mode="rgb_array", cell_px=cell_px)
     try:
-        return record_episode(env, partial(greedy_action, q), seed=seed, max_steps=GIF_MAX_STEPS)
+        return record_episode(env, partial(greedy_action, q), seed=seed, max_steps=steps)
     finally:
         env.close()
 

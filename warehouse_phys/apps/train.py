@@ -55,6 +55,7 @@ from warehouse_phys.apps.cli import (
     bounded_int,
     floor_from_args,
     opened_run_folder,
+    warnings_in_one_line,
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
 from warehouse_phys.apps.runs import (
@@ -190,6 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 @stops_on_sigterm
+@warnings_in_one_line(PROG)
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status (130 on Ctrl-C, 143 on SIGTERM)."""
     run: list[RunFolder] = []  # the run folder, once there is one

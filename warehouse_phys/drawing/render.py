@@ -133,10 +133,13 @@ class WarehouseRenderer:
         self.cols = cols
         self.shelves = tuple(shelves)
         self.cell_px = int(cell_px)
+        #: Pace of :meth:`show` [frames/s].
         self.render_fps = render_fps
         self.title = title
         self.status_px = max(20, self.cell_px * 3 // 8)  # [px] height of the status line
+        #: Width of a frame [px]: the columns.
         self.width = cols * self.cell_px
+        #: Height of a frame [px]: the rows and the status line under them.
         self.height = rows * self.cell_px + self.status_px
         #: Whether frames of this size can be drawn; see :meth:`check_frame_size`.
         self.frame_too_large = (

@@ -6,7 +6,8 @@ ticks_per_move=10, delays=DelayConfig(...))`` is the PettingZoo face of
 as a body of the physics twin
 (:meth:`~warehouse_phys.physics.batched.BatchedPhysicsWorld.drive_tick`).
 The environment composes those parts (floor, placement, errands, execution, bodies)
-and holds no rule of its own.
+and holds no rule of its own; its observations, actions and infos also come as arrays
+(:mod:`~warehouse_phys.envs.array_form`).
 """
 
 from __future__ import annotations
@@ -18,12 +19,27 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import AECEnv, ParallelEnv
-from pettingzoo.utils.conversions import parallel_to_aec_wrapper
-from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from warehouse_phys.drawing.text_frames import fleet_ansi_frame
+from warehouse_phys.envs.array_form import (
+    ArrayStep,
+    action_array,
+    agent_dicts,
+    info_dicts,
+    step_dicts,
+)
+from warehouse_phys.envs.async_arguments import (
+    ACTION_NAMES,
+    GO,
+    STOP,
+    checked_async_action,
+    checked_gap,
+    delay_config,
+    gap_and_steps,
+)
+from warehouse_phys.envs.checks import checked_reset_options
+from warehouse_phys.envs.fleet.actions import aec_form
 from warehouse_phys.execution.delays import DelayConfig
-from warehouse_phys.execution.following import DEFAULT_MIN_GAP
 from warehouse_phys.execution.runner import Execution, TickOutcome
 from warehouse_phys.execution.ticks import (
     LORR_TICKS_PER_MOVE,
@@ -34,9 +50,15 @@ from warehouse_phys.execution.ticks import (
 from warehouse_phys.lorr.errands import NO_ERRAND, ErrandList, errand_list
 from warehouse_phys.lorr.instances import LorrInstance, as_instance
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
-from warehouse_phys.physics.config import PhysicsConfig, physics_config_from
-from warehouse_phys.physics.tick_controller import required_min_gap
-from warehouse_phys.physics.ticking import default_tick_steps, tick_fractions
+from warehouse_phys.physics.config import (
+    PhysicsConfig,
+    check_physics_robots,
+    max_physics_robots,
+    physics_config_from,
+)
+from warehouse_phys.physics.regions import check_threads
+from warehouse_phys.physics.safety import SafetyRecord
+from warehouse_phys.physics.ticking import drive_executor_tick
 from warehouse_phys.world.headings import HEADINGS, MOVE_MODELS, Heading
 from warehouse_phys.world.layouts import make_grid
 from warehouse_phys.world.placement import (
@@ -47,10 +69,13 @@ from warehouse_phys.world.placement import (
     reachable_cells,
 )
 
-#: The actions: hold the robot this tick, or let the executor drive it.
-STOP, GO = 0, 1
-#: Most robots the physics twin takes (as the lock-step physics fleet).
-MAX_PHYSICS_ROBOTS = 1024
+__all__ = ["DEFAULT_TICKS", "GO", "MAX_PHYSICS_ROBOTS", "STOP", "AsyncFleetEnv", "env",
+           "parallel_env"]  # fmt: skip
+
+#: Most robots the physics twin takes: what this machine's memory holds
+#: (:func:`~warehouse_phys.physics.config.max_physics_robots`).
+MAX_PHYSICS_ROBOTS = max_physics_robots()
+
 #: Ticks an episode lasts by default.
 DEFAULT_TICKS = 1000
 
@@ -70,7 +95,7 @@ class AsyncFleetEnv(ParallelEnv):
     that no two robots' centres ever come closer than ``min_gap`` cells, whatever the
     delays. With ``physics=True`` each robot is a disc in one pymunk space whose body
     follows its grid position tick by tick and is snapped when a move ends; the gap is
-    then what the bodies need (:func:`~warehouse_phys.physics.ticking.required_min_gap`)
+    then what the bodies need (:func:`~warehouse_phys.physics.tick_controller.required_min_gap`)
     and no two discs ever overlap by more than the collision slop.
 
     With ``moves="rotate"`` the robots are the League of Robot Runners' turning robots
@@ -108,8 +133,15 @@ class AsyncFleetEnv(ParallelEnv):
 
     ``infos[robot]``: ``go`` (the executor's command), ``advanced``, ``delayed``,
     ``held``, ``knock_on`` (stood still for a robot ahead), ``errands`` (this episode's),
-    and with physics ``snap_error`` (cells, for a move that ended this tick, else 0).
+    and with physics ``snap_error`` (cells, for a move that ended this tick, else 0) and,
+    measured at every physics step (``safety=True``, the default), ``closest_approach``
+    (the closest another body's centre came to this robot's this episode [cells], ``inf``
+    beyond a cell), ``body_contacts`` and ``wall_contacts`` (its contacts deeper than the
+    collision slop; :attr:`safety` has the fleet's).
     :attr:`execution` holds the executor and the measures; :attr:`world` the bodies.
+
+    ``reset_arrays``/``step_arrays`` are the same episode with arrays in robot order
+    instead of dicts (:mod:`~warehouse_phys.envs.array_form`).
 
     ## Arguments
     - ``num_robots`` (int; an instance's ``teamSize``), ``layout``, ``grid_rows``,
@@ -124,14 +156,22 @@ class AsyncFleetEnv(ParallelEnv):
       draws them: every episode has the same delays unless ``reset(options={"delays":
       ...})`` gives another configuration.
     - ``plan_every`` (ticks, default ``ticks_per_move``), ``window`` (steps, default 1),
+      ``planner`` (``"pibt"``, default, or ``"guided"``: the windows' planner,
+      :data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`),
       ``around_delays`` (``"wait"``, ``"reroute"``, ``"off"``: how the windows treat
       delayed robots, :class:`~warehouse_phys.execution.runner.Execution`),
       ``min_gap`` (cells; default the executor's, with physics what the bodies need;
       a smaller one than the bodies need is refused).
     - ``physics`` (bool), ``tick_steps`` (physics steps a tick), the physical keywords
       of :class:`~warehouse_phys.physics.PhysicsConfig`; ``track_gaps`` (bool): record
-      every body's path to measure :meth:`closest_approach`.
-    - ``max_cycles`` (ticks, default 1,000), ``seed`` (the planner's tie-breaks),
+      every body's path to measure :meth:`closest_approach`; ``safety`` (bool, default
+      True): measure every physics step (:attr:`safety`); ``physics_threads`` (1 to 64,
+      default 1): the bodies held in that many regions of the floor, stepped in parallel
+      (:mod:`~warehouse_phys.physics.regions`: the same bodies for a seed and a number
+      of threads, and the one-space bodies while no two touch). The physics twin takes
+      as many robots as this machine's memory holds (:data:`MAX_PHYSICS_ROBOTS`).
+    - ``max_cycles`` (ticks, default 1,000), ``seed`` (the planner's tie-breaks, 0 to
+      2^63 - 1),
       ``render_mode`` (``None`` or ``"ansi"``).
 
     ## Version History
@@ -160,10 +200,13 @@ class AsyncFleetEnv(ParallelEnv):
         plan_every: int | None = None,
         window: int = 1,
         around_delays: str = "wait",
+        planner: str = "pibt",
         min_gap: float | None = None,
         physics: bool = False,
         tick_steps: int | None = None,
         track_gaps: bool = False,
+        safety: bool = True,
+        physics_threads: int = 1,
         max_cycles: int = DEFAULT_TICKS,
         scheduler: Any = None,
         record_errands: bool = False,
@@ -195,13 +238,16 @@ class AsyncFleetEnv(ParallelEnv):
         #: ``"grid"`` (four directions) or ``"rotate"`` (LoRR's turning robots).
         self.moves = moves
         self.max_cycles = check_whole("max_cycles", max_cycles, 1, 10**9)
-        self.delays = _delay_config(delays)
+        self.delays = delay_config(delays)
         self.physics: PhysicsConfig | None = physics_config_from(physical) if physics else None
         if not physics and physical:
             raise TypeError(f"physical keywords {sorted(physical)} need physics=True")
+        self.physics_threads = check_threads(physics_threads)
+        seed = check_whole("seed", seed, 0, 2**63 - 1)
         self._options = {"ticks_per_move": ticks_per_move, "speeds": speeds,
                          "plan_every": plan_every, "window": window,
-                         "around_delays": around_delays, "seed": seed}  # fmt: skip
+                         "around_delays": around_delays, "seed": seed,
+                         "planner": planner}  # fmt: skip
         self._reachable = reachable_cells(self.grid)
         self._targets = package_cells(self.grid)
         if self.instance is None:
@@ -212,13 +258,15 @@ class AsyncFleetEnv(ParallelEnv):
         self._errands: ErrandList | None = None
         if self.instance is not None:
             self._errands = errand_list(self.instance, scheduler=scheduler, record=record_errands)
-        if self.physics is not None and self.num_robots > MAX_PHYSICS_ROBOTS:
-            raise ValueError(f"num_robots: the physics twin takes at most {MAX_PHYSICS_ROBOTS}")
+        if self.physics is not None:
+            check_physics_robots(self.num_robots)
         needed = move_ticks(check_ticks_per_move(ticks_per_move), self.num_robots, speeds)
-        self.tick_steps, self.min_gap = self._gap_and_steps(min_gap, tick_steps, needed)
+        self.tick_steps, self.min_gap = gap_and_steps(
+            self.physics, self.turning, checked_gap(min_gap), tick_steps, needed
+        )
         # Built once here to check every argument; each reset builds the episode's.
         self.execution = self._new_execution(np.stack(np.divmod(placeholder, self.grid.cols), 1))
-        self.track_gaps = bool(track_gaps)
+        self.track_gaps, self._safety = bool(track_gaps), bool(safety)
         self.world: BatchedPhysicsWorld | None = None
         self.possible_agents = [f"robot_{i}" for i in range(self.num_robots)]
         self.agents: list[str] = []
@@ -243,37 +291,56 @@ class AsyncFleetEnv(ParallelEnv):
         """One tick: hold the robots whose action is STOP, let the executor drive the rest."""
         if not self.agents:
             raise ValueError("call reset() before step(): the episode has ended")
-        hold = self._holds(actions)
+        agents = self.agents
+        return step_dicts(agents, self._tick(self._holds(actions)))
+
+    def step_arrays(self, actions: np.ndarray) -> ArrayStep:
+        """:meth:`step` with ``actions`` an ``(N,)`` integer array of GO/STOP in robot order,
+        and arrays back (:class:`~warehouse_phys.envs.array_form.ArrayStep`)."""
+        if not self.agents:
+            raise ValueError("call reset() before step(): the episode has ended")
+        return self._tick(action_array(actions, self.num_robots, 2, ACTION_NAMES) == STOP)
+
+    def _tick(self, hold: np.ndarray) -> ArrayStep:
         executor = self.execution.executor
         left_before, done_before = executor.left.copy(), executor.done.copy()
         faced = None if executor.headings is None else executor.headings.copy()
         outcome = self.execution.tick(self._goal_cells(), hold)
-        snap = None
-        if self.world is not None:
-            snap = self._drive(left_before, done_before, faced, outcome)
+        snap = None if self.world is None else drive_executor_tick(
+            self.world, executor, left_before, done_before, faced, outcome.report.ended,
+            self.tick_steps)  # fmt: skip
         arrived = (executor.done == 0) & (executor.left == self._goals)
         if self._errands is not None:
             arrived &= self._errands.goals >= 0
         self._new_goals(arrived)
         self._last = outcome
-        observations, infos = self._observations(), self._infos(arrived, snap)
-        rewards = dict(zip(self.agents, arrived.astype(float).tolist(), strict=True))
-        done = executor.tick >= self.max_cycles
-        terminations = dict.fromkeys(self.agents, False)
-        truncations = dict.fromkeys(self.agents, done)
+        n, done = self.num_robots, executor.tick >= self.max_cycles
+        result = ArrayStep(self._observation_table(), arrived.astype(float),
+                           np.zeros(n, dtype=bool), np.full(n, done),
+                           self._info_columns(snap))  # fmt: skip
         if done:
             self.agents = []
-        return observations, rewards, terminations, truncations, infos
+        return result
 
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         """Robots on their starts with their first goals, tick 0; ``seed`` seeds the
-        placement; ``options={"delays": DelayConfig or dict or None}`` changes the delays."""
+        placement; ``options={"delays": DelayConfig or dict or None}`` changes the delays
+        (any other option is refused)."""
+        table, columns = self.reset_arrays(seed, options)
+        return agent_dicts(self.agents, table), info_dicts(self.agents, columns)
+
+    def reset_arrays(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """:meth:`reset`, with every robot's observation as a row of one ``(N, K)`` array
+        and the infos as ``(N,)`` arrays (:mod:`~warehouse_phys.envs.array_form`)."""
+        options = checked_reset_options(options, ("delays",))
         if seed is not None:
-            self.np_random, _ = seeding.np_random(seed)
-        if options and "delays" in options:
-            self.delays = _delay_config(options["delays"])
+            self.np_random, _ = seeding.np_random(check_whole("seed", seed, 0, 2**63 - 1))
+        if "delays" in options:
+            self.delays = delay_config(options["delays"])
         if self._errands is not None:
             here = self.instance.starts.astype(np.int64)
             self._errands.reset(here)
@@ -288,11 +355,13 @@ class AsyncFleetEnv(ParallelEnv):
             self.world = BatchedPhysicsWorld(self.grid, self.physics, cells,
                                              np.zeros(self.num_robots, dtype=np.int64),
                                              record_path=self.track_gaps,
-                                             headings=self.execution.executor.headings)  # fmt: skip
+                                             headings=self.execution.executor.headings,
+                                             threads=self.physics_threads,
+                                             safety=self._safety)  # fmt: skip
         self._errands_done[:] = 0
         self._last = None
         self.agents = list(self.possible_agents)
-        return self._observations(), self._infos(np.zeros(self.num_robots, dtype=bool), None)
+        return self._observation_table(), self._info_columns(None)
 
     def render(self) -> str | None:
         """``"ansi"``: the floor as text, robots as digits on the cell they are on or leave."""
@@ -328,6 +397,18 @@ class AsyncFleetEnv(ParallelEnv):
         """Ticks run this episode."""
         return self.execution.executor.tick
 
+    @property
+    def safety(self) -> SafetyRecord | None:
+        """The bodies' closest approach and contacts deeper than the collision slop this
+        episode (:class:`~warehouse_phys.physics.safety.SafetyRecord`; ``None`` without
+        physics or with ``safety=False``)."""
+        return None if self.world is None else self.world.safety
+
+    def checked_action(self, agent: str, action: object) -> int:
+        """``action`` as STOP (0) or GO (1), or a ``TypeError``/``ValueError`` naming
+        ``agent`` (the AEC form checks each robot's action as it is given)."""
+        return checked_async_action(agent, action)
+
     def closest_approach(self) -> float:
         """The smallest distance between two bodies' centres at the physics steps of the
         last tick [cells] (physics with ``track_gaps=True``): never below the robots'
@@ -342,53 +423,18 @@ class AsyncFleetEnv(ParallelEnv):
         return Execution(self.grid, cells, delays=self.delays, min_gap=self.min_gap,
                          headings=headings, **self._options)  # fmt: skip
 
-    def _gap_and_steps(
-        self, min_gap: float | None, tick_steps: int | None, needed: np.ndarray
-    ) -> tuple[int | None, float]:
-        if self.physics is None:
-            if tick_steps is not None:
-                raise ValueError("tick_steps is for the physics twin (physics=True)")
-            return None, DEFAULT_MIN_GAP if min_gap is None else float(min_gap)
-        fastest = int(needed.min())
-        steps = default_tick_steps(self.physics, fastest) if tick_steps is None else tick_steps
-        needs = required_min_gap(self.physics, fastest, steps, turning=self.turning)
-        if min_gap is not None and min_gap < needs:
-            raise ValueError(f"min_gap {min_gap} cells is less than the {needs:.3g} cells "
-                             "these bodies need (required_min_gap)")  # fmt: skip
-        return steps, needs if min_gap is None else float(min_gap)
-
     def _holds(self, actions: dict[str, int]) -> np.ndarray:
-        if not isinstance(actions, dict) or set(actions) != set(self.agents):
-            missing = sorted(set(self.agents) - set(actions or {}))[:3]
-            raise ValueError(f"actions must name every live robot; missing {missing}")
-        values = np.fromiter(
-            (_action(agent, actions[agent]) for agent in self.agents), np.int64, len(self.agents)
-        )
+        if not isinstance(actions, dict):
+            raise TypeError(f"actions must be a dict of robot to action, got "
+                            f"{type(actions).__name__}")  # fmt: skip
+        if set(actions) != set(self.agents):
+            missing = sorted(set(self.agents) - set(actions))[:3]
+            unknown = sorted(map(str, set(actions) - set(self.agents)))[:3]
+            raise ValueError(f"actions must name every live robot and no other; missing "
+                             f"{missing}, unknown {unknown}")  # fmt: skip
+        checked = (checked_async_action(agent, actions[agent]) for agent in self.agents)
+        values = np.fromiter(checked, np.int64, len(self.agents))
         return values == STOP
-
-    def _drive(
-        self,
-        left_before: np.ndarray,
-        done_before: np.ndarray,
-        faced: np.ndarray | None,
-        outcome: TickOutcome,
-    ) -> np.ndarray:
-        """Drive the bodies through the tick the executor ran (from the cells, ticks done
-        and headings before it); each robot's snap error, 0 where no action ended."""
-        executor, cols = self.execution.executor, self.grid.cols
-        report = outcome.report
-        before, after = tick_fractions(done_before, executor.done, report.ended,
-                                       executor.ticks_needed)  # fmt: skip
-        turns = {} if faced is None else {"headings_before": faced,
-                                          "headings_after": executor.facing}  # fmt: skip
-        _, snap = self.world.drive_tick(
-            np.stack(np.divmod(left_before, cols), axis=1),
-            np.stack(np.divmod(executor.entered, cols), axis=1),
-            before, after, report.ended, self.tick_steps, **turns,
-        )  # fmt: skip
-        errors = np.zeros(self.num_robots)
-        errors[report.ended] = snap
-        return errors
 
     def _new_goals(self, arrived: np.ndarray) -> None:
         self._errands_done += arrived
@@ -406,7 +452,7 @@ class AsyncFleetEnv(ParallelEnv):
     def _goal_cells(self) -> np.ndarray:
         return np.stack(np.divmod(self._goals, self.grid.cols), axis=1)
 
-    def _observations(self) -> dict[str, np.ndarray]:
+    def _observation_table(self) -> np.ndarray:
         executor, cols = self.execution.executor, self.grid.cols
         last = self._last
         n = self.num_robots
@@ -419,10 +465,9 @@ class AsyncFleetEnv(ParallelEnv):
         ]  # fmt: skip
         if self.turning:
             columns += [executor.headings[:, None], executor.facing[:, None]]
-        table = np.concatenate(columns, axis=1)
-        return dict(zip(self.agents, table, strict=True))
+        return np.concatenate(columns, axis=1)
 
-    def _infos(self, arrived: np.ndarray, snap: np.ndarray | None) -> dict[str, dict[str, Any]]:
+    def _info_columns(self, snap: np.ndarray | None) -> dict[str, np.ndarray]:
         n = self.num_robots
         last = self._last
         none = np.zeros(n, dtype=bool)
@@ -433,27 +478,12 @@ class AsyncFleetEnv(ParallelEnv):
                    "knock_on": knock_on, "errands": self._errands_done}  # fmt: skip
         if self.physics is not None:
             columns["snap_error"] = np.zeros(n) if snap is None else snap
-        lists = {key: value.tolist() for key, value in columns.items()}
-        keys = list(lists)
-        rows = zip(*(lists[key] for key in keys), strict=True)
-        pairs = zip(self.agents, rows, strict=True)
-        return {agent: dict(zip(keys, row, strict=True)) for agent, row in pairs}
-
-
-def _delay_config(delays: DelayConfig | dict[str, Any] | None) -> DelayConfig | None:
-    if delays is None or isinstance(delays, DelayConfig):
-        return delays
-    if isinstance(delays, dict):
-        return DelayConfig.from_json(delays)
-    raise TypeError(f"delays must be a DelayConfig, its JSON dict or None, got {delays!r}")
-
-
-def _action(agent: str, action: object) -> int:
-    if isinstance(action, (bool, np.bool_)) or not isinstance(action, (int, np.integer)):
-        raise TypeError(f"{agent}'s action must be 0 (STOP) or 1 (GO), got {action!r}")
-    if action not in (STOP, GO):
-        raise ValueError(f"{agent}'s action must be 0 (STOP) or 1 (GO), got {action}")
-    return int(action)
+        record = self.safety
+        if record is not None:
+            columns |= {"closest_approach": record.robot_closest.copy(),
+                        "body_contacts": record.robot_body_contacts.copy(),
+                        "wall_contacts": record.robot_wall_contacts.copy()}  # fmt: skip
+        return columns
 
 
 def parallel_env(**kwargs: Any) -> AsyncFleetEnv:
@@ -462,5 +492,6 @@ def parallel_env(**kwargs: Any) -> AsyncFleetEnv:
 
 
 def env(**kwargs: Any) -> AECEnv:
-    """The asynchronous fleet as a PettingZoo AEC environment."""
-    return OrderEnforcingWrapper(parallel_to_aec_wrapper(parallel_env(**kwargs)))
+    """The asynchronous fleet as a PettingZoo AEC environment, each robot's action checked
+    as it is given (a bad one is refused at once, and nothing changes)."""
+    return aec_form(parallel_env(**kwargs))

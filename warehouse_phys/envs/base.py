@@ -82,10 +82,11 @@ class RenderModes(list):
 
 
 class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
-    """What every warehouse environment shares; see :class:`WarehouseGridEnv` for the specification.
+    """What every warehouse environment shares; see
+    :class:`~warehouse_phys.envs.single.WarehouseGridEnv` for the specification.
 
-    Subclasses implement :meth:`_move_robot` and may extend
-    :meth:`_start_episode` (called at the end of every reset).
+    Subclasses implement ``_move_robot(action) -> Cell`` and may extend
+    ``_start_episode()`` (called at the end of every reset).
     """
 
     metadata: dict[str, Any] = {  # noqa: RUF012 - Gymnasium reads and copies this class attribute
@@ -147,13 +148,13 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
     def step(
         self, action: int | np.integer
     ) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
-        """Move the robot by ``action`` and report the new state.
+        """Move the robot by ``action`` and report the new state. An action refused with
+        ``TypeError`` or ``ValueError`` changes nothing.
 
         Raises:
             gymnasium.error.ResetNeeded: if :meth:`reset` was never called.
             TypeError: if ``action`` is not an integer (``None``, a float, a bool, ...).
             ValueError: if ``action`` is an integer outside ``0..3``.
-            Neither error changes the environment.
         """
         if self._robot is None:
             raise ResetNeeded("call reset() before step()")
@@ -177,7 +178,8 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode: robot on the start cell, target drawn with ``self.np_random``.
 
-        ``options`` may hold ``"target"``, a cell from :attr:`WarehouseGrid.target_cells`
+        ``options`` may hold ``"target"``, a cell from
+        :attr:`WarehouseGrid.target_cells <warehouse_phys.world.grid.WarehouseGrid.target_cells>`
         to use instead of a random draw (no random number is drawn then), and
         ``"start"``, any floor cell other than the target for the robot to start on
         (a random target is then drawn from the other allowed cells).
@@ -195,7 +197,7 @@ class WarehouseEnvBase(gym.Env[np.ndarray, np.int64]):
         return self._get_obs(), self._get_info()
 
     def render(self) -> np.ndarray | str | None:
-        """Render the current state in :attr:`render_mode`.
+        """Render the current state in ``render_mode`` (given when the environment is made).
 
         ``"rgb_array"`` returns an ``(H, W, 3)`` uint8 array, ``"ansi"`` a string,
         ``"human"`` draws in a window and returns ``None``.

@@ -252,3 +252,23 @@ def checked_reset_mask(options: dict[str, Any] | None, num_envs: int) -> np.ndar
     if not mask.any():
         raise ValueError("options['reset_mask'] must mark at least one sub-environment")
     return mask
+
+
+#: The option PettingZoo's API tests pass to ``reset`` (``{"options": 1}``) to see that an
+#: environment takes options: accepted and ignored by the fleets.
+PETTINGZOO_PROBE_OPTION = "options"
+
+
+def checked_reset_options(options: object, known: Sequence[str]) -> dict[str, Any]:
+    """A fleet's ``reset(options=...)`` as a dict (``{}`` for ``None``), or a one-line
+    ``TypeError`` (not a dict) / ``ValueError`` naming the options it does not know
+    (``known``; PettingZoo's probe :data:`PETTINGZOO_PROBE_OPTION` is let through)."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise TypeError(f"reset options must be a dict or None, got {type(options).__name__}")
+    unknown = [key for key in options if key not in known and key != PETTINGZOO_PROBE_OPTION]
+    if unknown:
+        names = ", ".join(repr(key) for key in known) or "none"
+        raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; known: {names}")
+    return options

@@ -5,7 +5,8 @@ instance: its floor, its robots on their starts (facing east) and its task list 
 out as the competition does (:class:`~warehouse_phys.envs.fleet.WarehouseFleetEnv` with
 ``instance=``). ``parallel_env`` and ``env`` are PettingZoo's two forms of it.
 ``async_fleet(path)`` runs the instance on ticks, with its ``agentCounter`` and
-``delayConfig`` (League of Robot Runners 2026), a tick a step.
+``delayConfig`` (League of Robot Runners 2026), a tick a step. An instance's fleet
+driven by PIBT::
 
     from warehouse_phys.envs import lorr
     from warehouse_phys.rl.fleet_planners import pibt_policy

@@ -3,7 +3,7 @@
 :class:`WarehouseEnvBase` holds everything an episode needs (spaces, argument
 checks, reset options, the reward rule, observations, rendering). A concrete
 environment only says how the robot gets from one cell to the next by
-overriding :meth:`WarehouseEnvBase._move_robot`: the grid twin applies the rule
+overriding ``WarehouseEnvBase._move_robot``: the grid twin applies the rule
 of :class:`~warehouse_phys.world.grid.WarehouseGrid` directly, the physics-backed
 environment drives a pymunk body there and reads the cell back from it.
 """
@@ -66,7 +66,7 @@ class WarehouseGridEnv(WarehouseEnvBase):
     as it is): ``Box(0, 1, (R + C + R + C,), float32)``, the same four numbers
     one-hot encoded one after the other, so exactly four entries are 1.0:
     ``robot_row``, ``R + robot_col``, ``R + C + target_row`` and
-    ``2R + C + target_col`` (:func:`onehot`).
+    ``2R + C + target_col`` (:func:`~warehouse_phys.envs.base.onehot`).
 
     ## Starting State
     The robot stands on (0, 0). The target is drawn uniformly from rows 1..R-1
@@ -137,8 +137,8 @@ class WarehouseGridEnv(WarehouseEnvBase):
       larger than ``warehouse_phys.drawing.render.MAX_FRAME_PIXELS`` is refused when
       the environment is built; lower ``cell_px``. With no display, ``"human"``
       warns once and draws offscreen, as Gymnasium's own environments do (see
-      :func:`draw_offscreen_without_display`). A ``render_mode`` that is not
-      a string raises ``TypeError``, in ``gym.make`` too.
+      :func:`~warehouse_phys.envs.base.draw_offscreen_without_display`). A
+      ``render_mode`` that is not a string raises ``TypeError``, in ``gym.make`` too.
     - ``cell_px`` (int, default 64): side of one cell in rendered frames, in pixels.
     - Keyword-only: ``observation`` (``"cells"``, the default, or ``"onehot"``;
       see Observation Space), ``step_penalty`` and ``bump_penalty`` (see Rewards).

@@ -144,11 +144,13 @@ class DelayGenerator:
        is never hit again until that delay is over; one whose delay ended at this
        tick is available at once (so a robot can have ``[a, t]`` then ``[t, b]``).
     3. How many available robots are hit, ``K``:
+
        - ``"bernoulli"``: each available robot independently with chance ``p_delay``;
        - ``"poisson"``: ``K = min(Poisson(N * p_delay), available)``, with ``N`` the
          whole team (delayed robots included, as LoRR's ``teamSize * pDelay``), the
          ``K`` robots drawn uniformly without replacement from the available ones.
     4. Each robot hit draws a duration ``d`` in ``[min_delay, max_delay]``:
+
        - ``min_delay == max_delay``: ``d = min_delay``, no draw;
        - ``"uniform"``: uniform over the integers of the range;
        - ``"gaussian"``: with ``span = max_delay - min_delay``, a normal draw of mean
@@ -280,6 +282,12 @@ def _field(name: str) -> str:
 def _real(name: str, value: object) -> float:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{_field(name)} must be a number, got {value!r} ({type(value).__name__})")
-    if not math.isfinite(value):
+    try:
+        real = float(value)
+    except OverflowError:  # an integer beyond any float
+        raise ValueError(
+            f"{_field(name)} must be finite, got an integer of {int(value).bit_length():,} bits"
+        ) from None
+    if not math.isfinite(real):
         raise ValueError(f"{_field(name)} must be finite, got {value!r}")
-    return float(value)
+    return real

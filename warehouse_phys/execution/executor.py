@@ -111,7 +111,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from warehouse_phys.execution.following import DEFAULT_MIN_GAP, may_follow
+from warehouse_phys.execution.following import DEFAULT_MIN_GAP, follow_permits
 from warehouse_phys.execution.plan_checks import (
     NO_ROBOT,
     and_along,
@@ -125,6 +125,7 @@ from warehouse_phys.execution.plan_checks import (
     checked_ticks,
     rows_cols,
 )
+from warehouse_phys.execution.swept_squares import checked_size
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.traffic import neighbour_table
 
@@ -154,6 +155,20 @@ class TickReport(NamedTuple):
     facing: np.ndarray | None = None
 
 
+class TickCommand(NamedTuple):
+    """What the executor commands for a tick before its delays are known (``(N,)`` arrays):
+    :meth:`Executor.command`, given back to :meth:`Executor.step` once they are."""
+
+    #: May advance this tick if not delayed (GO), before hand-overs.
+    ready: np.ndarray
+    #: Whom each robot follows together (itself if nobody): it goes only if that one advances.
+    link: np.ndarray
+    #: Has a move to make now (in mid-move, or one released).
+    waiting: np.ndarray
+    #: The cell each robot's current or next move enters (its own cell with none).
+    target: np.ndarray
+
+
 class Executor:
     """Executes lock-step plans on robots whose moves take ticks and who may be delayed.
 
@@ -169,16 +184,25 @@ class Executor:
             all 1 is lock step), or one integer for every robot.
         min_gap: The closest two robots' centres may come [cells], in ``(0, 1]``: the
             physics twin asks for what its bodies need
-            (:func:`~warehouse_phys.physics.ticking.required_min_gap`); 1 lets no robot
+            (:func:`~warehouse_phys.physics.tick_controller.required_min_gap`); 1 lets no robot
             round a corner behind another before the other's move ends.
         headings: ``(N,)`` turning robots' headings (0..3,
             :class:`~warehouse_phys.world.headings.Heading`); ``None`` (default) for
             four-direction robots. Turning robots' plans give a heading at every step.
+        agent_size: ``None`` (default) for robots that are discs kept ``min_gap`` apart
+            (our model); a side in ``(0, 1]`` cells for the League of Robot Runners'
+            square robots (its instances' ``agentSize``): a robot then advances only where
+            the start kit's swept squares never collide, whatever the tick's delays
+            (:mod:`~warehouse_phys.execution.swept_squares`; ``min_gap`` is then unused),
+            no robot goes together with its leader, so :meth:`command` is the tick's GO
+            before its delays are drawn, and no plan may rotate robots.
 
     Raises:
         ValueError: naming the argument, if a cell is off the floor, on a shelf or shared,
-            a robot's ``ticks_needed`` is below 1 or ``min_gap`` is outside ``(0, 1]``.
-        TypeError: if ``ticks_needed`` is not integers or ``min_gap`` not a real number.
+            a robot's ``ticks_needed`` is below 1, ``min_gap`` is outside ``(0, 1]`` or
+            ``agent_size`` outside ``(0, 1]``.
+        TypeError: if ``ticks_needed`` is not integers or ``min_gap`` or ``agent_size``
+            not a real number.
     """
 
     def __init__(
@@ -188,10 +212,13 @@ class Executor:
         ticks_needed: np.ndarray | int = 1,
         min_gap: float = DEFAULT_MIN_GAP,
         headings: np.ndarray | None = None,
+        agent_size: float | None = None,
     ) -> None:
         self.grid = grid
         #: The closest two robots' centres may come [cells] (see the module).
         self.min_gap = checked_gap(min_gap)
+        #: Square robots' side [cells] (the kit's swept squares), ``None`` for discs.
+        self.agent_size = None if agent_size is None else checked_size(agent_size)
         here = checked_cells(grid, cells)
         n = len(here)
         #: Turning robots: the heading each faces (at the start of its current action),
@@ -267,9 +294,8 @@ class Executor:
             ValueError: naming ``path`` and the first robot and step that break this.
         """
         cells, faces = checked_path(self.grid, path, len(self._robots), self.facing is not None)
-        rotating = check_plan(
-            cells, self.entered, self._table, self._needed, self.grid, self.min_gap
-        )
+        rotating = check_plan(cells, self.entered, self._table, self._needed, self.grid,
+                              self.min_gap, squares=self.agent_size is not None)  # fmt: skip
         if faces is not None:
             check_turns(cells, faces, self.facing, self.grid.cols)
         self._moves, self._count = _build_moves(
@@ -284,19 +310,31 @@ class Executor:
         self._moves.rotation[i, number[i, s]] = True
         self._next[:] = 0
 
-    def step(self, delayed: np.ndarray | None = None) -> TickReport:
+    def command(self) -> TickCommand:
+        """The next tick's command, before its delays are known: each robot's GO
+        (``ready``), unless it follows another together (``link``), as :meth:`step` will
+        run it. Give it back to :meth:`step` with the tick's delays; until then the
+        executor must not change. With square robots nobody follows together: ``ready``
+        is the tick's GO whatever the delays."""
+        return TickCommand(*self._ready())
+
+    def step(
+        self, delayed: np.ndarray | None = None, command: TickCommand | None = None
+    ) -> TickReport:
         """Run one tick: command every robot, advance those that go and are not delayed.
 
         Args:
             delayed: ``(N,)`` bool, the robots that cannot advance this tick; none by
                 default.
+            command: This tick's :meth:`command`, if it was asked for before the delays
+                were known (the same as computed here).
 
         Returns:
             The tick's :class:`TickReport`.
         """
         n = len(self._robots)
         delayed = np.zeros(n, dtype=bool) if delayed is None else checked_delayed(delayed, n)
-        ready, link, waiting, target = self._ready(delayed)
+        ready, link, waiting, target = self._ready() if command is None else command
         advanced = ready & ~delayed
         follows = link != self._robots
         if follows.any():  # hand-overs: a follower goes only if its leader advances
@@ -322,7 +360,7 @@ class Executor:
         own_delay, knock_on = waiting & delayed, waiting & ~delayed & ~go
         return TickReport(go, target, advanced, ended, own_delay, knock_on, face)
 
-    def _ready(self, delayed: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def _ready(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Which robots may advance this tick if they are not delayed, whom each must
         follow (itself if nobody), which have a move to make now, and each move's cell."""
         robots, moves, done = self._robots, self._moves, self.done
@@ -338,9 +376,9 @@ class Executor:
         alone = np.zeros(len(robots), dtype=bool)
         together = np.zeros(len(robots), dtype=bool)
         if on_it.size:
-            alone[on_it], together[on_it] = may_follow(
+            alone[on_it], together[on_it] = follow_permits(
                 on_it, j[on_it], self.left, target, done, self._needed, self.grid.cols,
-                self.min_gap,
+                self.min_gap, self.agent_size,
             )  # fmt: skip
             alone[on_it] &= ~moves.rotation[on_it, k[on_it]]  # a rotation goes as one
         ready = waiting & (~depends | (j_next > j_move) | alone | together)

@@ -1,13 +1,19 @@
 """The follow rule: whether a robot may advance a tick into the cell the robot ahead of it
-(its leader) is leaving, keeping their centres :data:`DEFAULT_MIN_GAP` (or the
-executor's ``min_gap``) apart all tick.
+(its leader) is leaving.
 
 This is the one rule of :class:`~warehouse_phys.execution.executor.Executor` that says
 whether a robot may enter a cell another still holds: the dependency graph says whom a
-robot follows, :func:`may_follow` says whether it may advance now. Centres are points
-that move linearly within a tick (the grid twin's nominal positions); the gap is the
-least distance between them over the tick
-(:func:`~warehouse_phys.execution.async_grid.closest_squared`).
+robot follows, :func:`follow_permits` says whether it may advance now, by the robots'
+shape:
+
+- **discs** (our model: our own floors and the physics twin; :func:`may_follow`): centres
+  kept :data:`DEFAULT_MIN_GAP` (or the executor's ``min_gap``) apart all tick. Centres are
+  points that move linearly within a tick (the grid twin's nominal positions); the gap is
+  the least distance between them over the tick
+  (:func:`~warehouse_phys.execution.async_grid.closest_squared`).
+- **squares** of side ``agentSize`` (the League of Robot Runners' 2026 model, on its
+  instances; :func:`~warehouse_phys.execution.swept_squares.may_follow_squares`): the
+  start kit's swept squares never collide, whatever the leader does in the tick.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ import math
 import numpy as np
 
 from warehouse_phys.execution.async_grid import GAP_SLACK, closest_squared
+from warehouse_phys.execution.swept_squares import may_follow_squares
 
 #: Closest two robots' centres come by default [cells]: two robots that follow each
 #: other round a corner at the same pace pass this close (half a cell each way), so
@@ -63,6 +70,25 @@ def may_follow(
     alone = (done[leaders] > 0) & ~arrives & (closest_squared(start, still) >= least)
     together = (~arrives | leaves) & (closest_squared(start, both) >= least)
     return alone, together
+
+
+def follow_permits(
+    followers: np.ndarray,
+    leaders: np.ndarray,
+    left: np.ndarray,
+    target: np.ndarray,
+    done: np.ndarray,
+    needed: np.ndarray,
+    cols: int,
+    min_gap: float,
+    agent_size: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`may_follow` for discs kept ``min_gap`` apart (``agent_size`` ``None``), else
+    :func:`~warehouse_phys.execution.swept_squares.may_follow_squares` for squares of side
+    ``agent_size``; the same arguments and answers (may go alone, may go with its leader)."""
+    if agent_size is None:
+        return may_follow(followers, leaders, left, target, done, needed, cols, min_gap)
+    return may_follow_squares(followers, leaders, left, target, done, needed, cols, agent_size)
 
 
 def _unit(start: np.ndarray, end: np.ndarray, cols: int) -> np.ndarray:

@@ -48,11 +48,13 @@ def check_plan(
     needed: np.ndarray,
     grid: WarehouseGrid,
     min_gap: float,
+    *,
+    squares: bool = False,
 ) -> np.ndarray:
     """Refuse a plan (``(N, S + 1)`` cell indices) that does not start from ``start``,
     makes a move that is not one, puts two robots in a cell or across an edge, or has a
-    rotation the robots cannot make together; returns ``(S, N)`` bool, the robots that
-    rotate at each step."""
+    rotation the robots cannot make together (``squares``, the start kit's square robots:
+    none); returns ``(S, N)`` bool, the robots that rotate at each step."""
     cols = grid.cols
     wrong = np.flatnonzero(path[:, 0] != start)
     if wrong.size:
@@ -78,13 +80,15 @@ def check_plan(
         cell = by_step[shared[0][0], s]
         both = np.flatnonzero(path[:, s] == cell)[:2].tolist()
         raise ValueError(f"path puts robots {both} on {_cell(cell, cols)} at step {s}")
-    return _check_follows(path, needed, cols, min_gap)
+    return _check_follows(path, needed, cols, min_gap, squares)
 
 
-def _check_follows(path: np.ndarray, needed: np.ndarray, cols: int, min_gap: float) -> np.ndarray:
+def _check_follows(
+    path: np.ndarray, needed: np.ndarray, cols: int, min_gap: float, squares: bool
+) -> np.ndarray:
     """Refuse swaps, and rotations of robots whose moves take different ticks or that
-    could not pass each other round the rotation's corners with ``min_gap``; returns
-    ``(S, N)`` bool, the robots that rotate at each step."""
+    could not pass each other round the rotation's corners with ``min_gap`` (square
+    robots: any rotation); returns ``(S, N)`` bool, the robots that rotate at each step."""
     n, steps = path.shape[0], path.shape[1] - 1
     # Who stands on each cell at each step: (step, cell) keys sorted, looked up.
     keys = (np.arange(steps + 1)[None, :] * (path.max() + 1) + path).T.ravel()
@@ -106,6 +110,13 @@ def _check_follows(path: np.ndarray, needed: np.ndarray, cols: int, min_gap: flo
         raise ValueError(f"path swaps robots {pair} at step {x // n + 1}")
     rotating = and_along(leader, follows)  # every robot down its chain follows: a cycle
     mixed = rotating & ((needed[node % n] != needed[leader % n]) | (min_gap > DEFAULT_MIN_GAP))
+    if squares and rotating.any():
+        x = int(np.flatnonzero(rotating)[0])
+        raise ValueError(
+            f"path rotates robot {x % n} round a cycle at step {x // n + 1}: square robots "
+            "(agent_size) never rotate, the start kit's squares would collide; plan without "
+            "rotations (pibt_window(..., rotations=False))"
+        )
     if mixed.any():
         x = int(np.flatnonzero(mixed)[0])
         raise ValueError(

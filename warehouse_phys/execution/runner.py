@@ -27,11 +27,13 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from warehouse_phys.execution.delay_replay import DelayReplay
 from warehouse_phys.execution.delays import DelayConfig, DelayGenerator
 from warehouse_phys.execution.executor import Executor, TickReport
 from warehouse_phys.execution.following import DEFAULT_MIN_GAP
 from warehouse_phys.execution.ticks import check_ticks_per_move, check_whole, move_ticks
-from warehouse_phys.execution.windows import pibt_window
+from warehouse_phys.execution.windows import pibt_window, window_planner
+from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import TurnAction
@@ -94,11 +96,15 @@ class Execution:
             lock step.
         speeds: ``(N,)`` per-robot speed factors
             (:func:`~warehouse_phys.execution.ticks.move_ticks`), ``None`` for all 1.
-        delays: LoRR's ``delayConfig``, or ``None`` for no delays.
+        delays: LoRR's ``delayConfig``, delays replayed from a run
+            (:class:`~warehouse_phys.execution.delay_replay.DelayReplay`, one robot a row
+            of this fleet), or ``None`` for no delays.
         plan_every: Ticks between plans (default: ``ticks_per_move``, one move's time).
         window: Steps in each planned window, 1 to :data:`MAX_WINDOW`.
-        planner: The planner of the windows; default ``PIBT(grid, seed=seed)``, with
-            corner follows. Its rotations are broken
+        planner: The planner of the windows, or its name in
+            :data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS` (built for the
+            robots' moves and ``seed``); default ``PIBT(grid, seed=seed)``, with corner
+            follows. Its rotations are broken
             (:func:`~warehouse_phys.execution.windows.pibt_window`) unless every robot's
             moves take the same ticks and ``min_gap`` allows them, as the executor
             requires.
@@ -129,7 +135,7 @@ class Execution:
         delays: DelayConfig | None = None,
         plan_every: int | None = None,
         window: int = 1,
-        planner: PIBT | None = None,
+        planner: PIBT | GuidedPIBT | str | None = None,
         min_gap: float = DEFAULT_MIN_GAP,
         around_delays: str = "wait",
         headings: ArrayLike | None = None,
@@ -148,14 +154,21 @@ class Execution:
             "plan_every", ticks_per_move if plan_every is None else plan_every, 1, 10**9
         )
         self.window = check_whole("window", window, 1, MAX_WINDOW)
-        if delays is not None and not isinstance(delays, DelayConfig):
-            raise TypeError(f"delays must be a DelayConfig or None, got {type(delays).__name__}")
-        self.delays = None if delays is None else DelayGenerator(delays, n)
+        if delays is not None and not isinstance(delays, (DelayConfig, DelayReplay)):
+            raise TypeError(f"delays must be a DelayConfig, a DelayReplay or None, got "
+                            f"{type(delays).__name__}")  # fmt: skip
+        if isinstance(delays, DelayReplay) and delays.n_robots != n:
+            raise ValueError(f"delays replay {delays.n_robots} robots, the fleet has {n}")
+        self.delays = delays if isinstance(delays, DelayReplay) else (
+            None if delays is None else DelayGenerator(delays, n)
+        )  # fmt: skip
         #: Whether the windows may hold rotations (else they are broken).
         self.rotations = bool((needed == needed[:1]).all()) and (
             self.executor.min_gap <= DEFAULT_MIN_GAP
         )
         moves = "grid" if headings is None else "rotate"
+        if isinstance(planner, str):
+            planner = window_planner(planner, grid, moves=moves, seed=seed)
         self.planner = planner or PIBT(grid, moves=moves, seed=seed)
         if around_delays not in AROUND_DELAYS:
             raise ValueError(

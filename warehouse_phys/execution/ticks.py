@@ -61,7 +61,10 @@ def check_whole(name: str, value: object, minimum: int, maximum: int) -> int:
     ):
         raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
     if not minimum <= value <= maximum:
-        raise ValueError(f"{name} must be {minimum:,} to {maximum:,}, got {int(value):,}")
+        digits = len(str(abs(int(value)))) if int(value).bit_length() < 14_000 else None
+        shown = f"{int(value):,}" if digits is not None and digits <= 40 else (
+            f"an integer of {digits or 'over 4,000'} digits")  # fmt: skip
+        raise ValueError(f"{name} must be {minimum:,} to {maximum:,}, got {shown}")
     return int(value)
 
 

@@ -1,13 +1,17 @@
 """Plans for asynchronous execution: windows of PIBT steps, with their rotations taken out.
 
-:func:`pibt_window` asks a :class:`~warehouse_phys.planners.pibt.PIBT` planner for a
+:func:`pibt_window` asks a :class:`~warehouse_phys.planners.pibt.PIBT` planner (or a
+:class:`~warehouse_phys.planners.guidance.GuidedPIBT`, :func:`window_planner` by name) for a
 few lock-step steps in a row, each from the cells (and headings) its last step leads
 to, in the form :meth:`~warehouse_phys.execution.executor.Executor.add_plan` takes. A
 rotation (robots each entering the cell the next one leaves, round a cycle) can be run
 by the executor only when its robots' moves take the same ticks; for other fleets
 ``rotations=False`` plans each step again with one robot of each rotation asked to wait
 (so that the others go round it) and holds what rotations remain
-(:func:`without_rotations`). Like :mod:`warehouse_phys.world.grid`, this module imports
+(:func:`without_rotations`). A guided planner takes no ``requests``: the robots asked to
+wait are held after its plan instead, with every robot that would enter the cell of one
+held, down its chain (:func:`held_back`), and a step with rotations is not planned again
+(its rotations are held). Like :mod:`warehouse_phys.world.grid`, this module imports
 neither gymnasium, pymunk nor pygame.
 """
 
@@ -16,12 +20,33 @@ from __future__ import annotations
 import numpy as np
 
 from warehouse_phys.execution.plan_checks import NO_ROBOT, and_along, checked_cells, rows_cols
+from warehouse_phys.planners.guidance import GuidedPIBT
+from warehouse_phys.planners.guidance_config import GuidanceConfig
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.world.headings import HEADING_MOVES, TurnAction, turned
 from warehouse_phys.world.traffic import WAIT, neighbour_table
 
 #: Times :func:`pibt_window` plans a step again to take rotations out of it.
 REPLANS = 3
+#: The planners of the windows by name (:func:`window_planner`): PIBT, and PIBT
+#: following traffic-priced guide paths (the ``guided`` of
+#: :mod:`warehouse_phys.rl.fleet_planners`, its default guidance).
+WINDOW_PLANNERS = ("pibt", "guided")
+
+
+def window_planner(
+    name: str, grid: object, *, moves: str = "grid", seed: int = 0
+) -> PIBT | GuidedPIBT:
+    """The planner of :data:`WINDOW_PLANNERS` called ``name`` for ``grid`` and ``moves``.
+
+    Raises:
+        ValueError: for another name.
+    """
+    if name == "pibt":
+        return PIBT(grid, moves=moves, seed=seed)
+    if name == "guided":
+        return GuidedPIBT(grid, moves=moves, seed=seed, config=GuidanceConfig())
+    raise ValueError(f"unknown planner {name!r}; known: {', '.join(WINDOW_PLANNERS)}")
 
 
 def pibt_window(
@@ -51,9 +76,10 @@ def pibt_window(
     Raises:
         ValueError: if ``headings`` are missing for a turning planner or given to another.
     """
-    if planner.turning != (headings is not None):
+    pibt = planner.pibt if isinstance(planner, GuidedPIBT) else planner
+    if pibt.turning != (headings is not None):
         raise ValueError("headings: a turning planner (moves='rotate') needs them, no other")
-    grid = planner.grid
+    grid = pibt.grid
     here = checked_cells(grid, cells)
     facing = None if headings is None else np.asarray(headings, dtype=np.int64).copy()
     path = np.empty((len(here), steps + 1), dtype=np.int64)
@@ -73,7 +99,7 @@ def pibt_window(
 
 
 def _one_step(
-    planner: PIBT,
+    planner: PIBT | GuidedPIBT,
     here: np.ndarray,
     facing: np.ndarray | None,
     goals: np.ndarray,
@@ -84,10 +110,26 @@ def _one_step(
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """One step of the window: the cells each robot wants and the headings after it,
     planned again (up to :data:`REPLANS` times) while it has rotations to take out."""
-    table = neighbour_table(planner.grid)
+    grid = planner.pibt.grid if isinstance(planner, GuidedPIBT) else planner.grid
+    table = neighbour_table(grid)
     wait = TurnAction.WAIT if facing is not None else WAIT
     requests = dict(asked)
     options = dict(plan_options) if facing is None else {**plan_options, "headings": facing}
+    if isinstance(planner, GuidedPIBT):  # no requests: the asked robots are held after
+        actions = planner.plan(rows_cols(here, grid.cols), goals, **options)
+        hold = np.zeros(len(here), dtype=bool)
+        hold[list(requests)] = True
+        actions = np.where(hold, wait, actions)
+        if facing is None:
+            wanted, after = table[here, actions], None
+        else:
+            wanted = np.where(actions == TurnAction.FORWARD, table[here, HEADING_MOVES[facing]],
+                              here)  # fmt: skip
+        kept = held_back(here, wanted, occupant, hold)
+        if facing is not None:
+            actions = np.where((kept != wanted), wait, actions)
+            after = turned(facing, actions)
+        return kept, after
     for attempt in range(REPLANS + 1):
         actions = planner.plan(rows_cols(here, planner.grid.cols), goals, requests=requests,
                                **options)  # fmt: skip
@@ -97,7 +139,7 @@ def _one_step(
             forward = actions == TurnAction.FORWARD
             wanted = np.where(forward, table[here, HEADING_MOVES[facing]], here)
             after = turned(facing, actions)
-        heads = _rotation_heads(here, wanted, occupant) if not rotations else ()
+        heads = rotation_heads(here, wanted, occupant) if not rotations else ()
         if not len(heads) or attempt == REPLANS:
             return wanted, after
         requests.update(dict.fromkeys(np.asarray(heads).tolist(), wait))
@@ -118,7 +160,7 @@ def _follow_links(
     return moving, follows, np.where(follows, ahead, robots)
 
 
-def _rotation_heads(here: np.ndarray, wanted: np.ndarray, occupant: np.ndarray) -> np.ndarray:
+def rotation_heads(here: np.ndarray, wanted: np.ndarray, occupant: np.ndarray) -> np.ndarray:
     """The lowest-numbered robot of each rotation of a joint step (sorted)."""
     _, follows, link = _follow_links(here, wanted, occupant)
     rotating = and_along(link, follows)
@@ -129,6 +171,18 @@ def _rotation_heads(here: np.ndarray, wanted: np.ndarray, occupant: np.ndarray) 
         least = np.minimum(least, least[link])
         link = link[link]
     return np.flatnonzero(rotating & (least == np.arange(len(here))))
+
+
+def held_back(
+    here: np.ndarray, wanted: np.ndarray, occupant: np.ndarray, hold: np.ndarray
+) -> np.ndarray:
+    """A joint step (cell indices ``here`` to ``wanted``, conflict-free) with the robots
+    ``hold`` (``(N,)`` bool) kept where they are, and every robot that would enter the
+    cell of one kept, down its chain; the rest unchanged, so the step stays conflict-free.
+    ``occupant`` as :func:`without_rotations`'s. O(N log N)."""
+    moving, _, link = _follow_links(here, wanted, occupant)
+    keeps_moving = and_along(link, moving & ~np.asarray(hold, dtype=bool))
+    return np.where(keeps_moving, wanted, here)
 
 
 def without_rotations(here: np.ndarray, wanted: np.ndarray, occupant: np.ndarray) -> np.ndarray:

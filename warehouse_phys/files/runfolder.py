@@ -14,11 +14,13 @@ The policy, which ``python -m warehouse_phys.train`` follows:
 - Every file is written atomically (:mod:`warehouse_phys.files.atomic`), so each file
   in the folder is complete; a write that fails raises :class:`RunWriteError`
   naming the file and the reason, and the files written before it stay.
+- A run that ends without writing a file (interrupted, failed) leaves no folder it
+  created behind: neither its own nor the parents it made for it (``runs/`` on a
+  first run), as long as they are empty (:func:`make_folders`, :func:`remove_empty`).
 """
 
 from __future__ import annotations
 
-import contextlib
 import errno
 import fcntl
 import os
@@ -33,6 +35,53 @@ T = TypeVar("T")
 
 #: The file with which a run folder is proven writable (removed at once).
 _PROBE_FILE = "write-test"
+#: Times :func:`make_folders` starts again when a parent it saw is removed meanwhile (by
+#: another run's :func:`remove_empty`).
+_MAKE_TRIES = 8
+
+
+def make_folders(path: Path, *, exist_ok: bool) -> list[Path]:
+    """Create the folder ``path`` and its missing parents; returns those this call
+    created, innermost first (for :func:`remove_empty`).
+
+    A parent that another process removes meanwhile (a run that created it and ended
+    with it empty) is created again.
+
+    Raises:
+        FileExistsError: if ``path`` exists and not ``exist_ok``.
+        OSError: if a folder cannot be created.
+    """
+    created: list[Path] = []
+    for attempt in range(_MAKE_TRIES):
+        missing = [folder for folder in path.parents if not folder.exists()]
+        try:
+            for folder in [*reversed(missing), path]:  # outermost first
+                try:
+                    folder.mkdir()
+                except FileExistsError:
+                    if folder == path and not exist_ok:
+                        raise
+                    continue  # made by another process just now: not ours to remove
+                created.insert(0, folder)
+            return created
+        except FileNotFoundError:  # a parent was removed under us
+            if attempt == _MAKE_TRIES - 1:
+                remove_empty(created)
+                raise
+    return created
+
+
+def remove_empty(folders: list[Path]) -> None:
+    """Remove each of ``folders`` (innermost first, as :func:`make_folders` lists them)
+    while it is empty; a folder that holds anything stops it (the folders around it hold
+    it, then), and one already gone is passed over."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except FileNotFoundError:
+            continue
+        except OSError:  # not empty (another run's folder in it), or not ours to remove
+            return
 
 
 class RunFolderError(Exception):
@@ -70,7 +119,8 @@ class RunFolder:
         #: The names of the files written so far by :meth:`write`, in order.
         self.written: list[str] = []
         self._handle: int | None = None
-        self._created = False
+        #: The folders :meth:`open` created, this one and its parents, innermost first.
+        self._created: list[Path] = []
 
     def open(self) -> RunFolder:
         """Create or check the folder, lock it, clean it and prove it writable.
@@ -91,13 +141,8 @@ class RunFolder:
         if exists and not path.is_dir():
             raise RunFolderError(f"{path} exists and is not a folder")
         try:
-            if self.new:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.mkdir()
-                self._created = True
-            elif not path.exists():
-                path.mkdir(parents=True)
-                self._created = True
+            if self.new or not path.exists():
+                self._created = make_folders(path, exist_ok=not self.new)
             self._handle = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
         except FileExistsError:
             raise RunFolderError(f"{path} was created by another run just now") from None
@@ -136,10 +181,11 @@ class RunFolder:
 
     def close(self, *, remove_if_empty: bool = False) -> None:
         """Release the lock. With ``remove_if_empty``, a folder this run created and
-        wrote nothing into is removed too (an interrupted or failed run)."""
+        wrote nothing into is removed too (an interrupted or failed run), and so are the
+        parents it created for it while they are empty."""
         if remove_if_empty and self._created and not self.written:
-            with contextlib.suppress(OSError):
-                self.path.rmdir()
+            remove_empty(self._created)
+            self._created = []
         self._release()
 
     def __enter__(self) -> RunFolder:

@@ -45,12 +45,13 @@ def read_bytes(path: Path, limit: int, what: str) -> bytes:
 
 
 def read_locations(
-    path: Path, what: str, *, limit: int | None, cells: int
+    path: Path, what: str, *, limit: int | None, cells: int, single: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """The lines of a start or task file after its count: ``(offsets, locations)`` as
     in :class:`~warehouse_phys.lorr.instances.LorrInstance` (line ``k``'s locations are
     ``locations[offsets[k]:offsets[k + 1]]``), at most ``limit`` lines (default: the
-    count), each location checked to lie on the map (``0 <= location < cells``).
+    count), each location checked to lie on the map (``0 <= location < cells``); with
+    ``single``, each line one location (a start file's), else a ``ValueError``.
 
     The lines are found and their commas counted with array operations over the file's
     bytes; a Python loop runs only over comment lines and to name a faulty line."""
@@ -70,6 +71,13 @@ def read_locations(
     ends = np.flatnonzero(raw == _NEWLINE)  # one per line: body ends with one
     commas = np.searchsorted(ends, np.flatnonzero(raw == _COMMA))
     sizes = np.bincount(commas, minlength=len(ends)) + 1
+    if single and (sizes != 1).any():
+        first = int(np.flatnonzero(sizes != 1)[0])
+        text = body.split(b"\n")[first].strip()[:40].decode("ascii", "replace")
+        raise ValueError(
+            f"{name}, line {numbers[first]}: a {what} is one location (row * width + col), "
+            f"got {text!r}"
+        )
     offsets = np.zeros(len(ends) + 1, dtype=np.int64)
     np.cumsum(sizes, out=offsets[1:])
     try:

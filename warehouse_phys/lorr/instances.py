@@ -206,10 +206,10 @@ def read_instance(path: str | os.PathLike[str]) -> LorrInstance:
         raise ValueError(f"{name}: agentSize must be above 0 and at most 1 cell, got {size}")
     delay = _delay_config(data, name)
     folder = json_path.parent
-    files = {key: folder / _required(data, name, key, str) for key in _FILE_KEYS}
+    files = {key: _beside(folder, name, key, _required(data, name, key, str)) for key in _FILE_KEYS}
     grid = read_movingai(files["mapFile"])
     cells = grid.rows * grid.cols
-    starts = read_locations(files["agentFile"], "start", limit=team, cells=cells)
+    starts = read_locations(files["agentFile"], "start", limit=team, cells=cells, single=True)
     if len(starts[0]) - 1 < team:
         raise ValueError(
             f"{name}: teamSize is {team:,} but {shown(files['agentFile'])} has "
@@ -296,16 +296,36 @@ def write_instance(
 _FILE_KEYS = ("mapFile", "agentFile", "taskFile")
 
 
+class _LongInteger(int):
+    """An integer of the JSON too long to read (more than :data:`_MOST_DIGITS` digits),
+    kept as its number of digits so that the field's check names it."""
+
+    def __repr__(self) -> str:
+        return f"an integer of {int(self):,} digits"
+
+
+#: Most digits of an integer the instance reader converts (no field takes more; Python
+#: refuses past 4,300).
+_MOST_DIGITS = 30
+
+
+def _parse_int(text: str) -> int:
+    digits = len(text.lstrip("-"))
+    return _LongInteger(digits) if digits > _MOST_DIGITS else int(text)
+
+
 def _read_json(path: Path, name: str) -> dict[str, Any]:
     data = read_bytes(path, MAX_JSON_BYTES, "instance")
     try:
-        value = json.loads(data.decode("utf-8-sig"))
+        value = json.loads(data.decode("utf-8-sig"), parse_int=_parse_int)
     except UnicodeDecodeError:
         raise ValueError(f"{name}: not UTF-8 text; not a LoRR instance") from None
     except json.JSONDecodeError as error:
         raise ValueError(
             f"{name}, line {error.lineno}, column {error.colno}: not JSON: {error.msg}"
         ) from None
+    except RecursionError:  # arrays or objects nested thousands deep
+        raise ValueError(f"{name}: JSON nested too deeply; not a LoRR instance") from None
     if not isinstance(value, dict):
         raise ValueError(f"{name}: the instance must be a JSON object, got {type(value).__name__}")
     return value
@@ -320,6 +340,9 @@ def _typed(name: str, key: str, value: object, kind: type) -> Any:
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f"{name}: {key} must be a number, got {value!r}")
+    if isinstance(value, _LongInteger) or (kind is float and abs(value) >= 2**1023):
+        shown = value if isinstance(value, _LongInteger) else _LongInteger(len(str(abs(value))))
+        raise ValueError(f"{name}: {key} is out of range: {shown!r}")
     if kind is int:
         if isinstance(value, float) and not value.is_integer():
             raise ValueError(f"{name}: {key} must be a whole number, got {value!r}")
@@ -337,11 +360,31 @@ def _optional(data: dict[str, Any], name: str, key: str, kind: type) -> Any:
     return None if key not in data else _typed(name, key, data[key], kind)
 
 
+def _beside(folder: Path, name: str, key: str, relative: str) -> Path:
+    """The file ``relative`` names, which must lie in the instance's ``folder`` or below
+    it (as the competition's instances do): a path that leads out of it, ``..`` or from
+    the root, is refused without being read, so an instance cannot make the reader open
+    and quote any file of the machine."""
+    path = folder / relative
+    inside = os.path.relpath(os.path.normpath(path), os.path.normpath(folder))
+    if inside == os.pardir or inside.startswith(os.pardir + os.sep) or os.path.isabs(inside):
+        raise ValueError(
+            f"{name}: {key} {relative!r} leads out of the instance's folder; an instance's "
+            "files lie in its folder or below it"
+        )
+    return path
+
+
 def _delay_config(data: dict[str, Any], name: str) -> DelayConfig | None:
     """The instance's ``delayConfig``, checked as LoRR checks it (one home:
     :class:`~warehouse_phys.execution.delays.DelayConfig`), or ``None``."""
     if "delayConfig" not in data:
         return None
+    config = data["delayConfig"]
+    long = [key for key, value in config.items() if isinstance(value, _LongInteger)] if (
+        isinstance(config, dict)) else []  # fmt: skip
+    if long:
+        raise ValueError(f"{name}: delayConfig {long[0]} is out of range: {config[long[0]]!r}")
     try:
         return DelayConfig.from_json(data["delayConfig"])
     except (TypeError, ValueError) as error:

@@ -11,7 +11,11 @@
 - :mod:`~warehouse_phys.physics.ticking`: bodies driven tick by tick between cells
   (asynchronous execution) and the clearance formula; a tick's arguments are checked by
   :mod:`~warehouse_phys.physics.tick_arguments`, the tick controller check is
-  :mod:`~warehouse_phys.physics.tick_controller`.
+  :mod:`~warehouse_phys.physics.tick_controller`;
+- :mod:`~warehouse_phys.physics.regions`: the floor split into regions, a space each,
+  stepped in parallel threads (``BatchedPhysicsWorld(threads=K)``);
+- :mod:`~warehouse_phys.physics.safety`: the bodies' closest approach and contacts deeper
+  than the collision slop, measured at every physics step.
 
 The names of the first four are importable from here, as they were from the
 single module this package replaces.

@@ -31,9 +31,6 @@ from warehouse_phys.physics.engine import (
     CAN_RESTART,
     RobotBodies,
     add_robot,
-    clear_time_step,
-    renew_robot,
-    space_stepping,
 )
 from warehouse_phys.physics.floor_lattice import (
     FLOOR_GAP,
@@ -47,8 +44,10 @@ from warehouse_phys.physics.lockstep import (
     move_bodies,
     turning_aims,
 )
-from warehouse_phys.physics.tick_arguments import check_tick
-from warehouse_phys.physics.ticking import QUARTER, aim_controls, snap_ended
+from warehouse_phys.physics.regions import RegionRows, check_threads
+from warehouse_phys.physics.safety import SafetyRecord
+from warehouse_phys.physics.tick_arguments import check_tick, checked_headings
+from warehouse_phys.physics.ticking import QUARTER, aim_controls, nominal_positions, snap_ended
 from warehouse_phys.world.grid import WarehouseGrid
 
 __all__ = ["ACTION_DELTA_ARRAY", "FLOOR_GAP", "GAP_REACH", "BatchedPhysicsWorld"]
@@ -81,6 +80,13 @@ class BatchedPhysicsWorld:
             (lock step) and :meth:`drive_tick` (tick by tick) drive the turns, and the
             heading is read from the body's angle and snapped like its position.
             ``None`` (default): robots that do not turn.
+        threads: How many spaces the robots' bodies are held in, each a band of the floor
+            stepped on a thread of its own (:mod:`~warehouse_phys.physics.regions`): 1
+            (default) one space; for more, bodies that may touch during a move share a
+            space, and the bodies move bit for bit as in one space while none touch.
+        safety: Whether every move and tick is measured (:attr:`safety`, a
+            :class:`~warehouse_phys.physics.safety.SafetyRecord`: closest approach and
+            contacts deeper than the collision slop); it records the paths.
 
     Raises:
         ValueError: if a start is off the floor or on a shelf, two robots on
@@ -96,6 +102,8 @@ class BatchedPhysicsWorld:
         *,
         record_path: bool = False,
         headings: np.ndarray | Sequence[int] | None = None,
+        threads: int = 1,
+        safety: bool = False,
     ) -> None:
         starts = np.array(starts, dtype=np.int64).reshape(-1, 2)
         n_robots = len(starts)
@@ -104,7 +112,8 @@ class BatchedPhysicsWorld:
         floor_of, n_floors = checked_floors(floor_of, n_robots)
         self.grid = grid
         self.config = config
-        self.record_path = record_path
+        self.threads = check_threads(threads)
+        self.record_path = bool(record_path or safety)
         self.n_robots = n_robots
         self.n_floors = n_floors
         #: ``(N,)`` int64: the floor each robot stands on.
@@ -117,21 +126,31 @@ class BatchedPhysicsWorld:
         self.turning = headings is not None
         #: ``(N,)`` int64: each turning robot's heading after the last move (zeros if
         #: the robots do not turn).
-        self.headings = self._checked_headings(headings, n_robots)
+        self.headings = checked_headings(headings, n_robots)
         self._drive_steps = config.steps_per_move - config.settle_steps
         self._settle_steps = config.settle_steps
         #: ``(floors, 2)`` float64: each floor's top-left corner ``(x, y)`` [m].
         self.floor_origins = lattice.origins
 
-        self.space = lattice.new_space(config)
         self.cells = starts.copy()
         self._centre_xy = lattice.centres(starts)
         angles = (self.headings * QUARTER).tolist() if self.turning else [None] * n_robots
-        self.bodies: list[RobotBodies] = [
-            add_robot(self.space, config, tuple(xy), angle)
-            for xy, angle in zip(self._centre_xy.tolist(), angles, strict=True)
-        ]
-        self._rows = BodyRows(self.space, self.bodies, angles=self.turning)
+        self._rows: BodyRows | RegionRows
+        if self.threads > 1:  # bands of the floor, a space each
+            self._rows = RegionRows(lattice, config, self._centre_xy,
+                                    angles if self.turning else None, self.threads)  # fmt: skip
+            self.space, self.spaces, self.bodies = None, self._rows.spaces, self._rows.bodies
+        else:
+            self.space = lattice.new_space(config)
+            self.bodies: list[RobotBodies] = [
+                add_robot(self.space, config, tuple(xy), angle)
+                for xy, angle in zip(self._centre_xy.tolist(), angles, strict=True)
+            ]
+            self._rows = BodyRows(self.space, self.bodies, angles=self.turning, config=config)
+            self.spaces = [self.space]
+        #: The closest approach and the contacts deeper than the slop, measured at every
+        #: physics step since the world was built or restarted whole (``safety=True``).
+        self.safety = SafetyRecord(n_robots, grid, config) if safety else None
         self._path, self._turn_path = np.zeros((0, n_robots, 2)), np.zeros((0, n_robots))
         self._move_starts = self.cells
         #: Each robot's angle before its snap in the last move, off its heading [rad]
@@ -149,12 +168,16 @@ class BatchedPhysicsWorld:
     def __getstate__(self) -> dict[str, object]:
         # The batched I/O buffers hold C pointers; a copy or an unpickled world makes its own.
         state = self.__dict__.copy()
-        state.pop("_rows")
+        if self.threads == 1:
+            state.pop("_rows")
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
         self.__dict__.update(state)
-        self._rows = BodyRows(self.space, self.bodies, angles=self.turning)  # new C objects
+        if self.threads == 1:  # new C objects
+            self._rows = BodyRows(self.space, self.bodies, angles=self.turning, config=self.config)
+        else:
+            self.spaces, self.bodies = self._rows.spaces, self._rows.bodies
 
     # ------------------------------------------------------------------ moves
     def move(
@@ -292,14 +315,14 @@ class BatchedPhysicsWorld:
         tick = check_tick(self, left, entered, before, after, ended, tick_steps,
                           headings_before, headings_after)  # fmt: skip
         entered_xy = self._lattice.centres(tick.entered)
+        if self.threads > 1:  # bodies that may touch in this tick share a space
+            self._rows.regroup(nominal_positions(self.cells, tick.entered, tick.before),
+                               nominal_positions(self.cells, tick.entered, tick.after),
+                               self.floor_of)  # fmt: skip
         aim_controls(self, tick, entered_xy)
         self._move_starts = self.cells
-        if self.record_path:
-            self._advance(tick.tick_steps, 0, tick.tick_steps)
-        else:
-            step, handle = space_stepping(self.space)
-            for _ in range(tick.tick_steps):
-                step(handle, self.config.dt)
+        self._advance(tick.tick_steps, 0, tick.tick_steps, read=False)
+        self._measure()
         self.fractions = np.where(tick.ended, 0.0, tick.after)
         self.entering = tick.entered
         if tick.headings_after is not None:
@@ -346,20 +369,22 @@ class BatchedPhysicsWorld:
             self._lattice.check_one_per_cell(cells, "start")
         centre_xy = self._lattice.centres(starts, robots)
         if self.turning:
-            turned = self._checked_headings(headings, len(robots))
+            turned = checked_headings(headings, len(robots))
             self.headings, self.turning_to = self.headings.copy(), self.turning_to.copy()
             self.headings[robots] = self.turning_to[robots] = turned
         angles = (
             (self.headings[robots] * QUARTER).tolist() if self.turning else [None] * len(robots)
         )
         for robot, xy, angle in zip(robots.tolist(), centre_xy.tolist(), angles, strict=True):
-            self.bodies[robot] = renew_robot(self.space, self.config, self.bodies[robot], xy, angle)
+            self._rows.renew(robot, xy, angle)
         everyone = len(robots) == self.n_robots and (np.sort(robots) == np.arange(len(robots)))
         if CAN_RESTART and np.all(everyone):
             # Every robot anew: the space's next step is a first. (Without pymunk's
             # internals it keeps its last step; with every joint and contact new, there
             # is no impulse for it to warm-start anyway.)
-            clear_time_step(self.space)
+            self._rows.clear_time_step()
+        if np.all(everyone) and self.safety is not None:
+            self.safety.clear()
         self.cells = cells
         self.fractions = self.fractions.copy()
         self.fractions[robots] = 0.0
@@ -440,36 +465,30 @@ class BatchedPhysicsWorld:
         return self._lattice.closest_approach(self._path, self._move_starts, reach)
 
     # ------------------------------------------------------------------ helpers
-    def _advance(self, steps: int, first: int, length: int | None = None) -> np.ndarray:
+    def _advance(
+        self, steps: int, first: int, length: int | None = None, *, read: bool = True
+    ) -> np.ndarray | None:
         """Run ``steps`` physics steps (the move's steps ``first``, ``first + 1``, ..., of
         ``length`` steps in all, default ``steps_per_move``); the robots' ``(x, y)`` [m]
-        after the last."""
-        step, handle = space_stepping(self.space)
-        dt = self.config.dt
+        after the last (``read=False``: ``None``, unless the path is recorded)."""
+        dt, rows = self.config.dt, self._rows
         if not self.record_path:
-            for _ in range(steps):
-                step(handle, dt)
-            return self._rows.robot_xy()
+            rows.advance(steps, dt)
+            return rows.robot_xy() if read else None
         if first == 0:
             length = self.config.steps_per_move if length is None else length
             self._path = np.empty((length, self.n_robots, 2))
             if self.turning:
                 self._turn_path = np.empty((length, self.n_robots))
         turn_path = self._turn_path if self.turning else None
-        self._rows.record_steps(
-            step, handle, dt, range(first, first + steps), self._path, turn_path
-        )
+        rows.record(dt, range(first, first + steps), self._path, turn_path)
         return self._path[first + steps - 1].copy()
 
-    @staticmethod
-    def _checked_headings(headings: object, n: int) -> np.ndarray:
-        """``headings`` as ``(n,)`` int64 in 0..3 (zeros for ``None``), or a ``ValueError``."""
-        if headings is None:
-            return np.zeros(n, dtype=np.int64)
-        array = np.asarray(headings)
-        if array.shape != (n,) or array.dtype.kind not in "iu" or ((array < 0) | (array > 3)).any():
-            raise ValueError(f"headings must be {n} integers 0..3, got {headings!r}")
-        return array.astype(np.int64)
+    def _measure(self) -> None:
+        """Measure the last move's or tick's physics steps into :attr:`safety`."""
+        if self.safety is not None:
+            self.safety.observe(self._path, self._lattice.origin, self._size, self.floor_of,
+                                self._rows.region)  # fmt: skip
 
     def on_free_cells(self, cells: np.ndarray) -> np.ndarray:
         """``(k,)`` whether each of ``cells`` (``(k, 2)`` integers ``(row, col)``) is a

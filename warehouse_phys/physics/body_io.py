@@ -12,14 +12,22 @@ for every body of the space, never through per-body properties:
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import pymunk
 import pymunk.batch
 
-from warehouse_phys.physics.engine import POSITION_FIELD, PositionReader, RobotBodies
+from warehouse_phys.physics.config import PhysicsConfig
+from warehouse_phys.physics.engine import (
+    POSITION_FIELD,
+    PositionReader,
+    RobotBodies,
+    clear_time_step,
+    renew_robot,
+    space_stepping,
+)
 
 #: Position, velocity and spin of a body in pymunk's batched I/O (5 numbers a body).
 STATE_FIELDS = (
@@ -44,14 +52,30 @@ class BodyRows:
     gives it back its own position, at rest. The buffers hold C pointers: a copy or an
     unpickled world builds rows of its own (its bodies are new C objects).
 
+    The same interface as :class:`~warehouse_phys.physics.regions.RegionRows` (the
+    bodies held in several spaces): the batched world reads, writes, steps and renews its
+    robots through either.
+
     Args:
         space: The world's space.
-        bodies: Every robot's bodies, in robot order.
+        bodies: Every robot's bodies, in robot order (the world's own list: a renewed
+            robot's joint is put in it).
         angles: Whether the robots turn (their angles are read, written and snapped).
+        config: The robots' physical parameters (to renew a robot).
     """
 
-    def __init__(self, space: pymunk.Space, bodies: Sequence[RobotBodies], *, angles: bool) -> None:
-        self.space = space
+    #: The region of each robot: one space, no regions.
+    region = None
+
+    def __init__(
+        self,
+        space: pymunk.Space,
+        bodies: list[RobotBodies],
+        *,
+        angles: bool,
+        config: PhysicsConfig | None = None,
+    ) -> None:
+        self.space, self.bodies, self.config = space, bodies, config
         n_robots = len(bodies)
         ours = np.array(
             [b.robot.id for b in bodies] + [b.control.id for b in bodies], dtype=np.uintp
@@ -92,6 +116,28 @@ class BodyRows:
         self._pose_io.set_float_buf(self._pose)
         #: Every body's whole state, for a tick.
         self.states = BodyStates(len(in_space), angles=angles)
+
+    def advance(self, steps: int, dt: float) -> None:
+        """Run ``steps`` physics steps of ``dt`` [s]."""
+        step, handle = space_stepping(self.space)
+        for _ in range(steps):
+            step(handle, dt)
+
+    def record(
+        self, dt: float, indices: range, path: np.ndarray, turn_path: np.ndarray | None = None
+    ) -> None:
+        """:meth:`record_steps` with the space's own step."""
+        step, handle = space_stepping(self.space)
+        self.record_steps(step, handle, dt, indices, path, turn_path)
+
+    def renew(self, robot: int, xy: tuple[float, float], angle: float | None) -> None:
+        """Make ``robot`` as newly built on ``xy`` [m] (facing ``angle``)
+        (:func:`~warehouse_phys.physics.engine.renew_robot`)."""
+        self.bodies[robot] = renew_robot(self.space, self.config, self.bodies[robot], xy, angle)
+
+    def clear_time_step(self) -> None:
+        """Forget the space's last time step (a world restarted whole)."""
+        clear_time_step(self.space)
 
     def robot_xy(self) -> np.ndarray:
         """Every robot's ``(x, y)`` [m], in robot order, with one batched read."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -35,9 +36,45 @@ PENETRATION_TOLERANCE = 0.1
 MAX_STEPS_PER_MOVE = 1000
 
 
+#: Memory the physics world takes a robot, rounded up from what it measured [bytes]:
+#: chipmunk's and pymunk's bodies, disc, joints and tree leaves, the batched buffers,
+#: a tick's recorded path and the safety measures (12 KiB a robot at 10,000 robots,
+#: 9 KiB at 40,000; ``benchmarks/physics_scale.py``).
+PHYSICS_BYTES_PER_ROBOT = 16 * 1024
+
+
+def machine_memory() -> int:
+    """This machine's physical memory [bytes] (64 GiB where the system does not say)."""
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
+        return 64 * 2**30
+
+
+def max_physics_robots() -> int:
+    """Most robots one physics world holds on this machine: its memory over
+    :data:`PHYSICS_BYTES_PER_ROBOT`."""
+    return machine_memory() // PHYSICS_BYTES_PER_ROBOT
+
+
+def check_physics_robots(num_robots: int, name: str = "num_robots") -> int:
+    """``num_robots`` if this machine's memory holds their bodies, else a ``ValueError``
+    naming ``name``, the memory they need and the machine's."""
+    most = max_physics_robots()
+    if num_robots > most:
+        need = num_robots * PHYSICS_BYTES_PER_ROBOT / 2**30
+        raise ValueError(
+            f"{name}: {num_robots:,} robots' bodies need about {need:,.1f} GiB "
+            f"({PHYSICS_BYTES_PER_ROBOT // 1024} KiB a robot), more than this machine's "
+            f"{machine_memory() / 2**30:,.1f} GiB: the physics world holds at most {most:,}"
+        )
+    return num_robots
+
+
 #: The values each setting may take, (lowest, highest), in its unit. Outside them
 #: the simulation loses precision or overflows; inside them the controller check
-#: (:func:`check_controller`) decides whether a setting keeps every promise.
+#: (:func:`~warehouse_phys.physics.controller.check_controller`) decides whether a setting
+#: keeps every promise.
 SUPPORTED_RANGES: dict[str, tuple[float, float]] = {
     "cell_size": (1e-3, 1e3),  # [m]
     "robot_radius": (1e-5, 5e2),  # [m], and less than half a cell
@@ -87,7 +124,7 @@ class PhysicsConfig:
             phase not shorter than the move, or a top speed that would cross
             more than the robot's radius in one step (the robot could then pass
             through a wall). Whether the controller keeps every promise is
-            :func:`check_controller`'s to decide.
+            :func:`~warehouse_phys.physics.controller.check_controller`'s to decide.
     """
 
     #: Side of one floor cell [m].

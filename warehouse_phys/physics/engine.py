@@ -216,7 +216,8 @@ _LIB = _chipmunk()
 _CP_SPACE_STEP = None if _LIB is None else _LIB.cpSpaceStep
 
 
-#: Whether :meth:`PhysicsWorld.restart` can begin an episode exactly as a new world does.
+#: Whether :meth:`~warehouse_phys.physics.world.PhysicsWorld.restart` can begin an episode
+#: exactly as a new world does.
 CAN_RESTART = _LIB is not None
 
 
@@ -351,20 +352,21 @@ class PositionReader:
     array has room for three more numbers than the bodies need, because
     pymunk's buffer grows (and would move our memory) when fewer than three
     places are left; no body is ever added to a world's space after it is
-    built. Without the pymunk internals this needs, it reads through
-    :func:`pymunk.batch.get_space_bodies`.
+    built, unless the reader has room for more (``capacity`` bodies, then
+    :meth:`resize` after bodies come or go: a region's space of
+    :mod:`~warehouse_phys.physics.regions`). Without the pymunk internals this
+    needs, it reads through :func:`pymunk.batch.get_space_bodies`.
     """
 
-    def __init__(self, n_bodies: int, *, angles: bool = False) -> None:
-        self.n_bodies = n_bodies
+    def __init__(self, n_bodies: int, *, angles: bool = False, capacity: int = 0) -> None:
         #: Numbers read per body: ``x, y``, and the angle with ``angles=True``.
         self.width = width = 3 if angles else 2
         fields = POSITION_FIELD | pymunk.batch.BodyFields.ANGLE if angles else POSITION_FIELD
         self._fields = fields
-        self._floats = np.zeros(width * n_bodies + 4)
+        self._floats = np.zeros(width * max(n_bodies, capacity) + 4)
         self._buffer = pymunk.batch.Buffer()
         self._buffer.set_float_buf(self._floats)
-        self._positions = self._floats[: width * n_bodies].reshape(n_bodies, width)
+        self.resize(n_bodies)
         try:
             from pymunk._chipmunk import ffi, lib
 
@@ -376,6 +378,14 @@ class PositionReader:
             self._call: tuple[Any, ...] | None = (lib.cpSpaceEachBody, iterate, data)
         except (ImportError, AttributeError):  # pragma: no cover - pymunk internals moved
             self._call = None
+
+    def resize(self, n_bodies: int) -> None:
+        """Read ``n_bodies`` bodies from now on (at most the capacity it was built with)."""
+        width = self.width
+        if width * n_bodies + 4 > len(self._floats):
+            raise ValueError(f"this reader has room for {(len(self._floats) - 4) // width} bodies")
+        self.n_bodies = n_bodies
+        self._positions = self._floats[: width * n_bodies].reshape(n_bodies, width)
 
     def read(self, space: pymunk.Space) -> np.ndarray:
         """``(bodies, 2)`` positions ``(x, y)`` [m] in the space's order (``(bodies, 3)``

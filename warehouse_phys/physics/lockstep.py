@@ -40,6 +40,9 @@ def move_bodies(
     if world.fractions.any():
         robot = int(np.flatnonzero(world.fractions)[0])
         raise RuntimeError(f"robot {robot} is in mid-move: finish its move with drive_tick")
+    if world.threads > 1:  # bodies that may touch in this move share a space
+        world._rows.regroup(world.cells.astype(np.float64), aims.astype(np.float64),
+                            world.floor_of)  # fmt: skip
     size, origin, rows = world._size, world._lattice.origin, world._rows
     world._move_starts = world.cells
     aims_xy = aims[:, ::-1]  # (col, row): the order of (x, y)
@@ -57,6 +60,7 @@ def move_bodies(
         aim_xy[off_aim] = (settle_on[off_aim] + 0.5) * size + origin[off_aim]
         rows.write_positions(xy, aim_xy)
     xy = world._advance(world._settle_steps, world._drive_steps)
+    world._measure()
 
     cells_xy = world._lattice.cells_of(xy)
     centre_xy = (cells_xy + 0.5) * size + origin

@@ -60,16 +60,18 @@ def check_tick(
             fractions not real numbers, ``ended`` not bools, ``tick_steps`` not an
             integer); headings missing for turning robots, or given for robots that do
             not turn.
-        ValueError: a wrong shape; ``left`` not each robot's cell (:attr:`cells`);
-            ``entered`` not that cell or a free neighbour of it, or not the cell a robot
-            in mid-move is entering; fractions outside ``0 <= before <= after <= 1``,
-            a ``before`` that is not where the last tick left the robot, a fraction for
-            a robot with no move (nor turn); ``ended`` not exactly the robots whose
-            ``after`` is 1; ``tick_steps`` below 1 or above ``MAX_STEPS_PER_MOVE``.
+        ValueError: a wrong shape; ``left`` not each robot's cell
+            (:attr:`~BatchedPhysicsWorld.cells`); ``entered`` not that cell or a free
+            neighbour of it, or not the cell a robot in mid-move is entering; fractions
+            outside ``0 <= before <= after <= 1``, a ``before`` that is not where the last
+            tick left the robot, a fraction for a robot with no move (nor turn); ``ended``
+            not exactly the robots whose ``after`` is 1; ``tick_steps`` below 1 or above
+            ``MAX_STEPS_PER_MOVE``.
             Turning robots: a heading outside 0..3, ``headings_before`` not the heading
-            a robot faces (:attr:`headings`), ``headings_after`` neither that nor a
-            quarter turn from it, or not the heading a robot in mid-action turns to
-            (:attr:`turning_to`); a turn that leaves its cell, a move not straight ahead.
+            a robot faces (:attr:`~BatchedPhysicsWorld.headings`), ``headings_after``
+            neither that nor a quarter turn from it, or not the heading a robot in
+            mid-action turns to (:attr:`~BatchedPhysicsWorld.turning_to`); a turn that
+            leaves its cell, a move not straight ahead.
     """
     n = world.n_robots
     steps = check_whole("tick_steps", tick_steps, 1, MAX_STEPS_PER_MOVE)
@@ -247,3 +249,14 @@ def _first(bad: np.ndarray) -> int | None:
 
 def _pair(cell: np.ndarray) -> tuple[int, ...]:
     return tuple(int(v) for v in cell)
+
+
+def checked_headings(headings: object, n: int) -> np.ndarray:
+    """A batched world's ``headings`` as ``(n,)`` int64 in 0..3 (zeros for ``None``), or a
+    ``ValueError``."""
+    if headings is None:
+        return np.zeros(n, dtype=np.int64)
+    array = np.asarray(headings)
+    if array.shape != (n,) or array.dtype.kind not in "iu" or ((array < 0) | (array > 3)).any():
+        raise ValueError(f"headings must be {n} integers 0..3, got {headings!r}")
+    return array.astype(np.int64)

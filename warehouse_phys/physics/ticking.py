@@ -135,6 +135,7 @@ __all__ = [
     "control_motion",
     "control_turn",
     "default_tick_steps",
+    "drive_executor_tick",
     "nominal_angles",
     "nominal_positions",
     "nominal_speed",
@@ -296,6 +297,33 @@ def control_turn(
 
 
 # ---------------------------------------------------------------------- the drive
+def drive_executor_tick(
+    world: BatchedPhysicsWorld,
+    executor: Any,
+    left_before: np.ndarray,
+    done_before: np.ndarray,
+    faced: np.ndarray | None,
+    ended: np.ndarray,
+    tick_steps: int,
+) -> np.ndarray:
+    """Drive ``world``'s bodies through the tick ``executor`` (an
+    :class:`~warehouse_phys.execution.executor.Executor`) just ran, from the cells left,
+    the ticks done and the headings faced before it (cell indices, ``faced`` ``None`` for
+    robots that do not turn) and the actions that ``ended`` in it; each robot's snap error
+    [cells], 0 where no action ended."""
+    cols = world.grid.cols
+    before, after = tick_fractions(done_before, executor.done, ended, executor.ticks_needed)
+    turns = {} if faced is None else {"headings_before": faced, "headings_after": executor.facing}
+    _, snap = world.drive_tick(
+        np.stack(np.divmod(left_before, cols), axis=1),
+        np.stack(np.divmod(executor.entered, cols), axis=1),
+        before, after, ended, tick_steps, **turns,
+    )  # fmt: skip
+    errors = np.zeros(world.n_robots)
+    errors[ended] = snap
+    return errors
+
+
 def aim_controls(world: BatchedPhysicsWorld, tick: Tick, entered_xy: np.ndarray) -> None:
     """Start a tick of ``world`` (:meth:`BatchedPhysicsWorld.drive_tick`): each control body
     on its robot's nominal position at ``tick.before``, with the velocity that carries it

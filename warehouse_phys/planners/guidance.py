@@ -32,7 +32,11 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   path against a lane pays that contraflow and robots going opposite ways take
   neighbouring corridors instead of meeting in one (every price of the flow sees them: a
   move into a lane's cell, and a turn on one, cost a little more too). The README has
-  the figures.
+  the figures. Lanes can cover the whole floor, open bands included (``floor_lane_paths``,
+  :func:`~warehouse_phys.planners.lanes.floor_lanes`), or be learned from the fleet's
+  own traffic (``learned_lane_paths``,
+  :class:`~warehouse_phys.planners.guidance_learning.TrafficLanes`); both are phantom
+  paths that only a search's contraflow sees (:attr:`TrafficGuidance.lanes`).
 - Following (``follow=True``): a candidate cell of a robot is valued by its guide path,
   the moves left along it from the path cell it is on or beside (one more beside), as
   guided PIBT does; so PIBT moves it along its path, and pushes and backtracks as ever.
@@ -44,7 +48,10 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   a step; robots left without a guide path are valued by PIBT's own distances (``NaN``
   values), so a step is always PIBT's, and every plan traffic grants. The first step,
   when every robot needs its first guide path, can have a bound of its own
-  (``first_time_limit``; ``math.inf`` for none).
+  (``first_time_limit``; ``math.inf`` for none). The searches run in batches of
+  ``search_batch`` against one flow, on ``workers`` threads
+  (:mod:`~warehouse_phys.planners.guide_searches`): the same paths for any number of
+  threads.
 
 Every knob is a field of :class:`~warehouse_phys.planners.guidance_config.GuidanceConfig`;
 the guide paths' searches and the flow's bookkeeping are compiled in
@@ -60,16 +67,18 @@ rules, it imports neither gymnasium, pymunk nor pygame.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from warehouse_phys.planners import graph_search, traffic_flow
 from warehouse_phys.planners.distances import DistanceMaps
 from warehouse_phys.planners.guidance_config import MAX_LANE_PATHS, GuidanceConfig
-from warehouse_phys.planners.lanes import NO_LANE, one_way_lanes
+from warehouse_phys.planners.guidance_learning import TrafficLanes
+from warehouse_phys.planners.guide_searches import GuidePaths, GuideSearches
+from warehouse_phys.planners.lanes import NO_LANE, floor_lanes, one_way_lanes
 from warehouse_phys.planners.operations import OperationPIBT
 from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES
 from warehouse_phys.world.traffic import FLEET_ACTIONS, WAIT, neighbour_table
@@ -77,25 +86,6 @@ from warehouse_phys.world.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 #: The configuration's names (:mod:`warehouse_phys.planners.guidance_config`) still import
 #: from here.
 __all__ = ["MAX_LANE_PATHS", "GuidanceConfig", "GuidedPIBT", "TrafficGuidance"]
-
-
-@dataclass
-class _Paths:
-    """Every robot's guide path: robot ``i``'s cells (map columns) are
-    ``pool[start[i] : start[i] + moves[i] + 1]``, its goal last, ``moves[i] < 0`` for none;
-    ``cursor[i]`` is where along it the robot stands."""
-
-    goal: np.ndarray
-    start: np.ndarray
-    moves: np.ndarray
-    cursor: np.ndarray
-    pool: np.ndarray = field(default_factory=lambda: np.empty(1 << 16, dtype=np.int32))
-    used: int = 0
-
-    @classmethod
-    def empty(cls, n: int) -> _Paths:
-        none = np.full(n, -1, dtype=np.int64)
-        return cls(none.copy(), none.copy(), none.copy(), np.zeros(n, dtype=np.int64))
 
 
 class TrafficGuidance:
@@ -132,12 +122,20 @@ class TrafficGuidance:
         self._lane_columns = np.flatnonzero(lanes != NO_LANE)
         self._lane_moves = lanes[self._lane_columns].astype(np.int64)
         self._lanes_laid = False
-        self._scratch = np.zeros((n, 4), dtype=np.int32)
-        self._g_cost = np.zeros(n, dtype=np.float64)
-        self._path = np.empty(n, dtype=np.int32)
+        #: Phantom guide paths along the floor's lanes (``config.floor_lane_paths``), which
+        #: only the contraflow of a search sees.
+        self.lanes = np.zeros((n, 4), dtype=np.int32)
+        self._laid_lanes = self.lanes.copy()  # the floor's, without the learned ones
+        #: Lanes learned from the fleet's traffic (``config.learned_lane_paths``), if any.
+        self.learner: TrafficLanes | None = None
+        if self.config.learned_lane_paths:
+            self.learner = TrafficLanes(self._floor_graph, paths=self.config.learned_lane_paths,
+                                        period=self.config.learn_period)  # fmt: skip
+            if self.config.learned_lanes_file is not None:
+                self.learner.load(self.config.learned_lanes_file, self._free)
+        self._searches = GuideSearches(self._cell_row, self._cell_col, self.config.workers)
         self._facing: np.ndarray | None = None
-        self._generation = 0
-        self._paths = _Paths.empty(0)
+        self._paths = GuidePaths.empty(0)
         self._turn = 0  # the next robot whose guide path is refreshed
         self._first = True  # no step planned yet: first_time_limit bounds the next
         self._guided = np.zeros(0, dtype=bool)  # robots with a guide path after the update
@@ -179,7 +177,7 @@ class TrafficGuidance:
         if len(self._paths.goal) != len(here):
             if len(self._paths.goal):
                 raise ValueError("a new fleet needs a new TrafficGuidance")
-            self._paths = _Paths.empty(len(here))
+            self._paths = GuidePaths.empty(len(here))
         self._hold(np.sort(np.asarray([] if held is None else held, dtype=np.int64)))
         limit = self.config.time_limit
         if self._first and self.config.first_time_limit is not None:
@@ -199,10 +197,25 @@ class TrafficGuidance:
         self._facing = facing
         if facing is not None and not self._lanes_laid:  # a turning fleet: lay its lanes
             self.flow[self._lane_columns, self._lane_moves] += self.config.turn_lane_paths
+            self._lay_floor_lanes()
             self._lanes_laid = True
+            if self.learner is not None and self.config.learned_lanes_file is not None:
+                self.lanes[:] = self._laid_lanes + self.learner.lanes()
+        if facing is not None and self.learner is not None and self.learner.observe(column):
+            self.lanes[:] = self._laid_lanes + self.learner.lanes()
         self._search_paths(column, status, active, deadline)
         self._guided = status == 0
         return self._values(here, goal, column, self._guided, distances)
+
+    def _lay_floor_lanes(self) -> None:
+        """Lay ``config.floor_lane_paths`` phantom paths along each cell's floor lanes."""
+        if not self.config.floor_lane_paths:
+            return
+        ways = floor_lanes(self._free)
+        for axis in range(2):
+            cells = np.flatnonzero(ways[:, axis] != NO_LANE)
+            self.lanes[cells, ways[cells, axis].astype(np.int64)] = self.config.floor_lane_paths
+        self._laid_lanes = self.lanes.copy()
 
     def cell_values(self, cells: np.ndarray, beside_cost: float = 1.0) -> np.ndarray:
         """The values of any cells along each robot's guide path as of the last
@@ -238,45 +251,51 @@ class TrafficGuidance:
         self._turn = (self._turn + max(1, self.config.refresh)) % max(n, 1)
         budget = self.config.max_searches
         self.searches, self.timed_out = 0, 0
-        for done, i in enumerate([*needed, *others]):
-            if (budget is not None and done >= budget) or (
+        robots = [*needed, *others]
+        while self.searches < len(robots):
+            if (budget is not None and self.searches >= budget) or (
                 deadline is not None and time.perf_counter() > deadline
             ):
-                self.timed_out = max(0, len(needed) - done)
+                self.timed_out = max(0, len(needed) - self.searches)
                 return
-            self._drop(np.array([i]))
-            status[i] = 0 if self._search(i, int(column[i])) else 1
-            self.searches += 1
+            size = self.config.search_batch
+            if budget is not None:
+                size = min(size, budget - self.searches)
+            batch = robots[self.searches : self.searches + size]
+            self._drop(np.array(batch))
+            for i, found in zip(batch, self._search(batch, column), strict=True):
+                status[i] = 0 if found else 1
+            self.searches += len(batch)
 
-    def _search(self, i: int, source: int) -> bool:
-        """Robot ``i``'s guide path from ``source`` (a map column) to its goal, stored and
-        added to the flow; False if its goal cannot be reached."""
-        self._generation += 1
-        if self._generation >= 2**31 - 1:
-            self._scratch[:, [0, 3]] = 0
-            self._generation = 1
+    def _search(self, robots: list[int], column: np.ndarray) -> list[bool]:
+        """The guide paths of ``robots`` from where they stand (map columns ``column``) to
+        their goals, searched as one batch (:mod:`~warehouse_phys.planners.guide_searches`),
+        stored and added to the flow in order; for each, False if its goal cannot be
+        reached."""
         paths, config = self._paths, self.config
-        goal = int(self._column[paths.goal[i]])
-        facing = -1 if self._facing is None or config.turn_cost is None else self._facing[i]
         contraflow = config.contraflow_weight
         if self._facing is not None and config.turn_contraflow_weight is not None:
             contraflow = config.turn_contraflow_weight
         costs = np.array([config.vertex_weight, contraflow, config.heuristic_weight,
                           config.turn_cost or 0.0, config.turn_traffic_weight])  # fmt: skip
-        moves = traffic_flow.congestion_path(
-            self._graph, self._cell_row, self._cell_col, self.flow, source, goal, costs,
-            self._scratch, self._g_cost, self._generation, self._path, int(facing))  # fmt: skip
-        if moves < 0:
-            return False
-        if paths.used + moves + 2 > len(paths.pool):
-            self._compact(moves + 2)
-        path = self._path[: moves + 1]
-        paths.pool[paths.used] = -1  # free: a robot pushed off the start rejoins there
-        paths.pool[paths.used + 1 : paths.used + moves + 2] = path
-        paths.start[i], paths.moves[i], paths.cursor[i] = paths.used + 1, moves, 0
-        paths.used += moves + 2
-        traffic_flow.add_flow(self._graph, self.flow, path, 1)
-        return True
+        turning = self._facing is not None and config.turn_cost is not None
+        facings = [int(self._facing[i]) if turning else -1 for i in robots]
+        goals = [int(self._column[paths.goal[i]]) for i in robots]
+        sources = [int(column[i]) for i in robots]
+        found = self._searches.search(self._graph, self.flow, self.lanes, sources, goals,
+                                      facings, costs)  # fmt: skip
+        for i, path in zip(robots, found, strict=True):
+            if path is None:
+                continue
+            moves = len(path) - 1
+            if paths.used + moves + 2 > len(paths.pool):
+                self._compact(moves + 2)
+            paths.pool[paths.used] = -1  # free: a robot pushed off the start rejoins there
+            paths.pool[paths.used + 1 : paths.used + moves + 2] = path
+            paths.start[i], paths.moves[i], paths.cursor[i] = paths.used + 1, moves, 0
+            paths.used += moves + 2
+            traffic_flow.add_flow(self._graph, self.flow, path, 1)
+        return [path is not None for path in found]
 
     def _drop(self, robots: np.ndarray) -> None:
         """Take the guide paths of ``robots`` away, and what is left of them off the flow."""
@@ -289,23 +308,8 @@ class TrafficGuidance:
             paths.moves[i] = -1
 
     def _compact(self, needed: int) -> None:
-        """Room for ``needed`` more path cells: keep only the live paths' cells from each
-        robot's cursor on, and grow the pool if still short."""
-        paths = self._paths
-        live = np.flatnonzero(paths.moves >= 0)
-        left = paths.moves[live] - paths.cursor[live] + 1
-        total = int(left.sum()) + len(live)  # each with a cell before it: the cursor's
-        capacity = len(paths.pool)
-        while capacity < 2 * (total + needed):
-            capacity *= 2
-        pool = np.empty(capacity, dtype=np.int32)
-        starts = 1 + np.concatenate([[0], np.cumsum(left + 1)])[: len(live)].astype(np.int64)
-        for i, begin, size in zip(live.tolist(), starts.tolist(), left.tolist(), strict=True):
-            first = paths.start[i] + paths.cursor[i]
-            pool[begin - 1] = -1  # free again
-            pool[begin : begin + size] = paths.pool[first : first + size]
-        paths.start[live], paths.moves[live], paths.cursor[live] = starts, left - 1, 0
-        paths.pool, paths.used = pool, total
+        """Room for ``needed`` more path cells (:meth:`GuidePaths.compact`)."""
+        self._paths.compact(needed)
 
     def _hold(self, held: np.ndarray) -> None:
         """Make the ``held`` cells walls of the guide paths' graph; when they change, every
@@ -371,9 +375,15 @@ class GuidedPIBT:
         operations: Turning robots only: plan with operations of this many actions
             (:class:`~warehouse_phys.planners.operations.OperationPIBT`, its cells valued
             along the guide paths) instead of one-step PIBT; 0 (default): one step.
+        repair: Turning robots only: improve each step's plan over a window of
+            ``repair_depth`` steps (:class:`~warehouse_phys.planners.repair.WindowRepair`);
+            None (default): no repair.
+        repair_depth: The repair's window [steps] (its operations' actions, 1..4) where the
+            plan is one-step PIBT's; over operations it is theirs.
 
     Raises:
-        ValueError: for ``operations`` with four-direction robots, or out of 0..4.
+        ValueError: for ``operations`` or ``repair`` with four-direction robots, or
+            ``operations`` out of 0..4.
     """
 
     def __init__(
@@ -386,6 +396,8 @@ class GuidedPIBT:
         moves: str = "grid",
         config: GuidanceConfig | None = None,
         operations: int = 0,
+        repair: WindowRepair | None = None,
+        repair_depth: int = 3,
     ) -> None:
         self.pibt = PIBT(grid, distances=distances, corner_follows=corner_follows, seed=seed,
                          moves=moves)  # fmt: skip
@@ -399,6 +411,16 @@ class GuidedPIBT:
             self.operations = OperationPIBT(grid, distances=self.pibt.distances,
                                             corner_follows=corner_follows, seed=seed,
                                             depth=operations)  # fmt: skip
+        #: The repair, if any, and the operations it plans one-step PIBT's plans over.
+        self.repair = repair
+        self._window: OperationPIBT | None = None
+        if repair is not None:
+            if moves != "rotate":
+                raise ValueError(f"the repair is for turning robots (moves='rotate'), got "
+                                 f"moves={moves!r}")  # fmt: skip
+            self._window = self.operations or OperationPIBT(
+                grid, distances=self.pibt.distances, corner_follows=corner_follows, seed=seed,
+                depth=repair_depth)  # fmt: skip
 
     def plan(
         self,
@@ -439,6 +461,15 @@ class GuidedPIBT:
             local = self.guidance.cell_values(self.operations.local_cells(here),
                                               beside_cost=self.operations.depth + 1.0)  # fmt: skip
             return self.operations.plan(cells, goals, movable, present, headings=headings,
+                                        cell_values=local, repair=self.repair)  # fmt: skip
+        actions = self.pibt.plan(cells, goals, movable, present, headings=headings,
+                                 candidate_values=values)  # fmt: skip
+        if self.repair is None or self._window is None:
+            return actions
+        local = self.guidance.cell_values(self._window.local_cells(here),
+                                          beside_cost=self._window.depth + 1.0)  # fmt: skip
+        repaired = self._window.improve(cells, goals, movable, present, headings=headings,
+                                        actions=actions, repair=self.repair,
                                         cell_values=local)  # fmt: skip
-        return self.pibt.plan(cells, goals, movable, present, headings=headings,
-                              candidate_values=values)  # fmt: skip
+        self.pibt.forget_commitments(np.flatnonzero(repaired != actions))
+        return repaired

@@ -50,6 +50,23 @@ class GuidanceConfig:
     #: so that a guide path against a lane pays the contraflow of this many paths (0: no
     #: lanes).
     turn_lane_paths: int = 2
+    #: Lanes over the whole floor for turning robots, open floor included: phantom guide
+    #: paths laid along each cell's east-west and north-south lanes
+    #: (:func:`~warehouse_phys.planners.lanes.floor_lanes`), seen by the contraflow of a
+    #: search alone, so that a guide path against a lane pays the contraflow of this many
+    #: paths (0: none).
+    floor_lane_paths: int = 0
+    #: Lanes learned from the fleet's own traffic, for turning robots
+    #: (:class:`~warehouse_phys.planners.guidance_learning.TrafficLanes`): phantom guide
+    #: paths along the way most of a cell's traffic goes, seen by the contraflow alone
+    #: (0: none).
+    learned_lane_paths: int = 0
+    #: Steps between two updates of the learned lanes.
+    learn_period: int = 50
+    #: Learned lanes to start from (:meth:`TrafficLanes.save
+    #: <warehouse_phys.planners.guidance_learning.TrafficLanes.save>`'s file, learned on
+    #: the same floor); None: none.
+    learned_lanes_file: str | None = None
     #: Whether robots follow their guide paths (else distances with a flow tie-break).
     follow: bool = True
     #: Robots whose guide path is searched anew each step besides those that need one.
@@ -59,6 +76,12 @@ class GuidanceConfig:
     #: Whether a robot pushed aside or back, one move off its guide path, rejoins it
     #: (else a new search; a robot beside a cell further along always rejoins).
     rejoin: bool = False
+    #: Guide paths searched as one batch, against the same flow (1: each search sees every
+    #: path before it). A batch's paths depend on the batch alone, so a step's plans are
+    #: the same for any number of ``workers``.
+    search_batch: int = 1
+    #: Threads that search a batch (:mod:`~warehouse_phys.planners.guide_searches`).
+    workers: int = 1
     #: Most guide-path searches in one step (None: no bound).
     max_searches: int | None = None
     #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
@@ -78,16 +101,21 @@ class GuidanceConfig:
             raise ValueError(
                 f"turn_contraflow_weight must be >= 0 or None, got {self.turn_contraflow_weight!r}"
             )
-        lane_paths = self.turn_lane_paths
-        if isinstance(lane_paths, bool) or not isinstance(lane_paths, int | np.integer):
-            raise TypeError(f"turn_lane_paths must be an int, got {lane_paths!r}")
-        if not 0 <= lane_paths <= MAX_LANE_PATHS:
-            raise ValueError(f"turn_lane_paths must be in 0..{MAX_LANE_PATHS}, "
-                             f"got {lane_paths!r}")  # fmt: skip
+        for name in ("turn_lane_paths", "floor_lane_paths", "learned_lane_paths"):
+            lane_paths = getattr(self, name)
+            if isinstance(lane_paths, bool) or not isinstance(lane_paths, int | np.integer):
+                raise TypeError(f"{name} must be an int, got {lane_paths!r}")
+            if not 0 <= lane_paths <= MAX_LANE_PATHS:
+                raise ValueError(f"{name} must be in 0..{MAX_LANE_PATHS}, got {lane_paths!r}")
         if not self.heuristic_weight >= 1:
             raise ValueError(f"heuristic_weight must be >= 1, got {self.heuristic_weight!r}")
         if self.turn_cost is not None and not self.turn_cost >= 0:
             raise ValueError(f"turn_cost must be >= 0 or None, got {self.turn_cost!r}")
+        if self.learn_period < 1:
+            raise ValueError(f"learn_period must be >= 1, got {self.learn_period!r}")
+        if self.search_batch < 1 or not 1 <= self.workers <= 64:
+            raise ValueError(f"search_batch must be >= 1 and workers in 1..64, got "
+                             f"{self.search_batch!r} and {self.workers!r}")  # fmt: skip
         if self.refresh < 0 or self.window < 1:
             raise ValueError(f"refresh must be >= 0 and window >= 1, got {self!r}")
         if self.max_searches is not None and self.max_searches < 0:

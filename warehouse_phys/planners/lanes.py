@@ -61,3 +61,40 @@ def one_way_lanes(free: np.ndarray) -> np.ndarray:
     row, col = np.nonzero(north_south)
     lane[row, col] = np.where(cols[col] % 2 == 0, Action.DOWN, Action.UP)
     return lane[free]
+
+
+def floor_lanes(free: np.ndarray) -> np.ndarray:
+    """Lanes over the whole floor, open floor included (after the one-way street grids of
+    Jiang et al.'s guidance graphs for warehouses): ``(n, 2)`` int8 for the free cells in
+    row-major order, each cell's east-west lane (:attr:`Action.LEFT` or
+    :attr:`Action.RIGHT`) and its north-south lane (:attr:`Action.DOWN` or
+    :attr:`Action.UP`), :data:`NO_LANE` where the cell has no free neighbour that way.
+
+    Every cell of a row runs the same way, and so does every cell of a column: a row that
+    holds east-west corridor cells one cell wide runs as :func:`one_way_lanes` runs them
+    (so its corridor cells' lanes are theirs, and neighbouring corridors run opposite
+    ways); any other row by its parity, even rows west and odd rows east. Columns likewise:
+    by their rank among corridor columns, else even columns south and odd ones north. On
+    open floor neighbouring rows (and columns) run opposite ways, so that traffic each way
+    has a lane beside it.
+
+    Raises:
+        ValueError: if ``free`` is not a two-dimensional boolean array.
+    """
+    free = np.asarray(free)
+    if free.ndim != 2 or free.dtype != bool:
+        raise ValueError(f"free must be a (rows, cols) boolean mask, got {free.dtype} "
+                         f"of shape {free.shape}")  # fmt: skip
+    walled = np.pad(free, 1, constant_values=False)
+    left, right = walled[1:-1, :-2], walled[1:-1, 2:]
+    up, down = walled[:-2, 1:-1], walled[2:, 1:-1]
+    east_west = (free & left & right & ~up & ~down).any(axis=1)
+    north_south = (free & up & down & ~left & ~right).any(axis=0)
+    row_rank = np.where(east_west, np.cumsum(east_west) - 1, np.arange(free.shape[0]))
+    col_rank = np.where(north_south, np.cumsum(north_south) - 1, np.arange(free.shape[1]))
+    row_way = np.where(row_rank % 2 == 0, Action.LEFT, Action.RIGHT).astype(np.int8)
+    col_way = np.where(col_rank % 2 == 0, Action.DOWN, Action.UP).astype(np.int8)
+    lanes = np.full((*free.shape, 2), NO_LANE, dtype=np.int8)
+    lanes[..., 0] = np.where(left | right, row_way[:, None], NO_LANE)
+    lanes[..., 1] = np.where(up | down, col_way[None, :], NO_LANE)
+    return lanes[free]

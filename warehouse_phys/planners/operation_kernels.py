@@ -3,10 +3,10 @@
 :class:`~warehouse_phys.planners.operations.OperationPIBT` plans every robot's operation
 (a sequence of turning actions) each step; the loops over robots, operations and their
 actions whose next step depends on the last are here, compiled with Numba (cached on
-disk after the first run): where each operation takes its robot (:func:`_operation_paths`),
-what it is worth (:func:`_operation_values`), the reservations of cells and moves at each
-depth (:func:`_conflict`, :func:`_reserve`, :func:`_reserve_all`) and PIBT's priority
-inheritance over them (:func:`_operation_pibt`). They are the operations module's own
+disk after the first run): where each operation takes its robot (``_operation_paths``),
+what it is worth (``_operation_values``), the reservations of cells and moves at each
+depth (``_conflict``, ``_reserve``, ``_reserve_all``) and PIBT's priority
+inheritance over them (``_operation_pibt``). They are the operations module's own
 (hence their leading underscores): pure, they read the arrays they are given and write
 only those they are told to.
 """
@@ -116,6 +116,23 @@ def _operation_values(
             # of the value), then fewest waits before the last action, then fewest actions.
             values[i, k] = value + _TIE_COST * (10 * progress + delays
                                                   + (last_move + 1 - delays) / 8)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _rank_operations(
+    values: np.ndarray, valid: np.ndarray, robots: np.ndarray, ranked: np.ndarray
+) -> None:
+    """Each of ``robots``' valid operations best first into ``ranked`` (``(N, K)``, -1
+    after the last), by value, ties by the operations' order (no draw)."""
+    for i in robots:
+        order = np.argsort(values[i], kind="mergesort")
+        j = 0
+        for k in order:
+            if valid[i, k]:
+                ranked[i, j] = k
+                j += 1
+        for rest in range(j, ranked.shape[1]):
+            ranked[i, rest] = -1
 
 
 @njit(cache=True, nogil=True)

@@ -49,6 +49,7 @@ pygame.
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -57,9 +58,11 @@ from warehouse_phys.planners.operation_kernels import (
     _operation_paths,
     _operation_pibt,
     _operation_values,
+    _rank_operations,
     _reserve_all,
 )
 from warehouse_phys.planners.pibt.priorities import grow_priorities
+from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import (
     HEADING_MOVES,
@@ -107,6 +110,25 @@ def local_offsets(depth: int = DEPTH) -> np.ndarray:
          if abs(r) + abs(c) <= reach],
         dtype=np.int64,
     )  # fmt: skip
+
+
+@dataclass
+class _Plan:
+    """A step's robots (cell indices, goals, headings, who moves and who is there), their
+    operations (cells and headings at each depth, ranks and values) and reservations."""
+
+    here: np.ndarray
+    goal: np.ndarray
+    heading: np.ndarray
+    movable: np.ndarray
+    present: np.ndarray
+    cells: np.ndarray
+    heads: np.ndarray
+    ranked: np.ndarray
+    values: np.ndarray
+    at: np.ndarray
+    leaving: np.ndarray
+    standing: np.ndarray
 
 
 class OperationPIBT:
@@ -195,6 +217,7 @@ class OperationPIBT:
         *,
         headings: np.ndarray,
         cell_values: np.ndarray | None = None,
+        repair: WindowRepair | None = None,
     ) -> np.ndarray:
         """The next joint action: ``(N,)`` int64 turning actions from each robot's
         ``(row, col)`` ``cells``, ``goals`` (``(N, 2)``) and ``headings`` (``(N,)``,
@@ -203,12 +226,68 @@ class OperationPIBT:
         ``cell_values`` (``(N, M)`` float, optional) values the cells of
         :meth:`local_cells` for each robot, lower better (a guide: see
         :mod:`warehouse_phys.planners.guidance`), ``NaN`` where the distance to the goal
-        is wanted.
+        is wanted. ``repair`` (optional) improves the plan of operations before its first
+        actions are taken (:mod:`warehouse_phys.planners.repair`).
 
         Raises:
             ValueError: if the number of robots changes between calls, or the headings
                 are not one of 0..3 a robot.
         """
+        plan = self._prepare(cells, goals, movable, present, headings, cell_values, grow=True)
+        here, heading, movable, present = plan.here, plan.heading, plan.movable, plan.present
+        moving = np.flatnonzero(movable)
+        chosen = self._carried(here, heading, movable, present)
+        _reserve_all(np.flatnonzero(present), chosen, here, plan.cells, plan.heads,
+                     HEADING_MOVES, plan.at, plan.leaving)  # fmt: skip
+        order = moving[np.argsort(-self._priority[moving], kind="stable")]
+        _operation_pibt(order, self._priority, ~movable, here, plan.ranked, plan.cells,
+                        plan.heads, HEADING_MOVES, plan.at, plan.leaving, plan.standing, chosen,
+                        self.revisits, self.max_kicks, self.corner_follows)  # fmt: skip
+        return self._finish(plan, chosen, repair, None)
+
+    def improve(
+        self,
+        cells: np.ndarray,
+        goals: np.ndarray,
+        movable: np.ndarray | None = None,
+        present: np.ndarray | None = None,
+        *,
+        headings: np.ndarray,
+        actions: np.ndarray,
+        repair: WindowRepair,
+        cell_values: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """A one-step plan's turning ``actions`` (every one granted by the traffic rule, as
+        PIBT's are) improved by ``repair``: each robot begins holding its action followed
+        by waits, and the repair plans neighbourhoods again over the window
+        (:mod:`warehouse_phys.planners.repair`). The arguments are :meth:`plan`'s; the
+        priorities are left as they are. Returns the improved actions, or ``actions`` as
+        given where the traffic rule would refuse any of the repaired ones."""
+        plan = self._prepare(cells, goals, movable, present, headings, cell_values)
+        actions = np.asarray(actions, dtype=np.int64)
+        chosen = np.zeros(len(actions), dtype=np.int64)
+        waits = (int(TurnAction.WAIT),) * (self.depth - 1)
+        first = np.array([self._index[(a, *waits)] for a in range(4)], dtype=np.int64)
+        chosen[plan.movable] = first[actions[plan.movable]]
+        _reserve_all(np.flatnonzero(plan.present), chosen, plan.here, plan.cells, plan.heads,
+                     HEADING_MOVES, plan.at, plan.leaving)  # fmt: skip
+        repair.extend(np.flatnonzero(plan.movable), actions, self.ops[:, 0], plan.here,
+                      plan.ranked, plan.cells, plan.heads, HEADING_MOVES, plan.at, plan.leaving,
+                      plan.standing, chosen, self.corner_follows)  # fmt: skip
+        return self._finish(plan, chosen, repair, actions)
+
+    def _prepare(
+        self,
+        cells: np.ndarray,
+        goals: np.ndarray,
+        movable: np.ndarray | None,
+        present: np.ndarray | None,
+        headings: np.ndarray,
+        cell_values: np.ndarray | None,
+        grow: bool = False,
+    ) -> _Plan:
+        """A step's operations: where each takes its robot, their ranks, and empty
+        reservations (:class:`_Plan`); with ``grow``, the priorities grow first."""
         cols = self.grid.cols
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
         goals = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
@@ -220,8 +299,9 @@ class OperationPIBT:
             raise ValueError(f"turning robots need one heading 0..3 each ({n}), got {headings!r}")
         present = np.ones(n, dtype=bool) if present is None else np.asarray(present, bool)
         movable = present.copy() if movable is None else np.asarray(movable, bool) & present
-        self._priority, self._goals = grow_priorities(self._priority, self._goals, here, goal,
-                                                      self.rng)  # fmt: skip
+        if grow:
+            self._priority, self._goals = grow_priorities(self._priority, self._goals, here,
+                                                          goal, self.rng)  # fmt: skip
         moving = np.flatnonzero(movable)
         k, depth = self.ops.shape
         op_cells = np.repeat(here, k * depth).reshape(n, k, depth)
@@ -230,28 +310,43 @@ class OperationPIBT:
         valid[:, 0] = True
         _operation_paths(here, heading, moving, self._table, HEADING_MOVES, self.ops, op_cells,
                          op_heads, valid)  # fmt: skip
-        ranked = self._ranked(here, goal, moving, op_cells, op_heads, valid, cell_values)
+        ranked, values = self._ranked(here, goal, moving, op_cells, op_heads, valid, cell_values,
+                                      draw=grow)  # fmt: skip
         # Who holds each cell at each depth, who leaves each cell by each move at each
-        # depth, who stands on each cell now (-1: nobody); every robot waits at first.
+        # depth, who stands on each cell now (-1: nobody).
         at = np.full((self.grid.rows * cols, depth), -1, dtype=np.int64)
         leaving = np.full((self.grid.rows * cols * 4, depth), -1, dtype=np.int64)
         standing = np.full(self.grid.rows * cols, -1, dtype=np.int64)
         robots = np.flatnonzero(present)
         standing[here[robots]] = robots
-        chosen = self._carried(here, heading, movable, present)
-        _reserve_all(robots, chosen, here, op_cells, op_heads, HEADING_MOVES, at, leaving)
-        order = moving[np.argsort(-self._priority[moving], kind="stable")]
-        _operation_pibt(order, self._priority, ~movable, here, ranked, op_cells, op_heads,
-                        HEADING_MOVES, at, leaving, standing, chosen, self.revisits,
-                        self.max_kicks, self.corner_follows)  # fmt: skip
+        return _Plan(here, goal, heading, movable, present, op_cells, op_heads, ranked, values,
+                     at, leaving, standing)  # fmt: skip
+
+    def _finish(
+        self, plan: _Plan, chosen: np.ndarray, repair: WindowRepair | None,
+        fallback: np.ndarray | None,
+    ) -> np.ndarray:  # fmt: skip
+        """The plan's first actions, after ``repair`` if any, through the traffic rule;
+        ``fallback`` (given) is returned instead where the rule refuses a repaired action."""
+        if repair is not None:
+            repair.improve(plan.movable, plan.here, plan.ranked, plan.values, plan.cells,
+                           plan.heads, HEADING_MOVES, plan.at, plan.leaving, plan.standing,
+                           chosen, self.corner_follows)  # fmt: skip
+        here, heading, movable, present = plan.here, plan.heading, plan.movable, plan.present
         actions = np.where(movable, self.ops[chosen, 0], TurnAction.WAIT)
         grants = turning_moves(self.grid, here, heading, actions, ~movable & present,
                                corner_follows=self.corner_follows)  # fmt: skip
+        if fallback is not None and grants.refused.any():
+            if repair is not None:
+                repair.stats.fell_back = True
+            self._carry = None
+            return fallback.copy()
         actions[grants.refused] = TurnAction.WAIT
         self.refused = int(grants.refused.sum())
-        done = np.arange(n)
-        self._carry = (self._shifted[chosen], op_cells[done, chosen, 0], op_heads[done, chosen, 0],
-                       movable.copy(), present.copy(), grants.refused.any())  # fmt: skip
+        done = np.arange(len(here))
+        self._carry = (self._shifted[chosen], plan.cells[done, chosen, 0],
+                       plan.heads[done, chosen, 0], movable.copy(), present.copy(),
+                       grants.refused.any())  # fmt: skip
         return actions
 
     def _carried(
@@ -282,9 +377,11 @@ class OperationPIBT:
         op_heads: np.ndarray,
         valid: np.ndarray,
         cell_values: np.ndarray | None,
-    ) -> np.ndarray:
+        draw: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Each robot's operations best first (``(N, K)``, -1 after its last valid one):
-        by value, then a seeded draw."""
+        by value, then a seeded draw (without ``draw``: the operations' order); and every
+        operation's value (``(N, K)``)."""
         n, k = valid.shape
         local_cells = self.local_cells(here[moving])
         local = np.full((n, len(self._offsets)), np.inf)
@@ -300,8 +397,13 @@ class OperationPIBT:
         _operation_values(here, goal, moving, self.grid.cols, self._table, MOVE_HEADINGS,
                           self.ops, op_cells, op_heads, valid, self._slot_of, self.depth + 1,
                           local, op_values)  # fmt: skip
+        if not draw:
+            ranked = np.full((n, k), -1, dtype=np.int64)
+            ranked[:, 0] = 0  # robots that do not move wait
+            _rank_operations(op_values, valid, moving, ranked)
+            return ranked, op_values
         order = np.lexsort((self.rng.random((n, k)), op_values), axis=1)
         ranked = np.where(np.take_along_axis(valid, order, axis=1), order, -1)
         # Valid operations first, in order (an invalid one sorts as inf, with the unreachable).
         ranked = np.take_along_axis(ranked, np.argsort(ranked < 0, axis=1, kind="stable"), 1)
-        return ranked
+        return ranked, op_values

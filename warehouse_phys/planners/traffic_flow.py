@@ -48,6 +48,7 @@ def congestion_path(
     cell_row: np.ndarray,
     cell_col: np.ndarray,
     flow: np.ndarray,
+    lanes: np.ndarray,
     source: int,
     goal: int,
     costs: np.ndarray,
@@ -60,12 +61,15 @@ def congestion_path(
     """A* from ``source`` to ``goal`` (columns) on moves priced by traffic (Chen, Harabor,
     Li and Stuckey's guide paths, their sum objective): a move from ``u`` to ``v`` by move
     ``k`` costs ``1 + costs[0] * (guide paths leaving v) + costs[1] * (flow[u, k] + 1) *
-    flow[v, opposite k]`` (the vertex flow, and the contraflow it would meet). Its
+    (flow[v, opposite k] + lanes[v, opposite k])`` (the vertex flow, and the contraflow
+    it would meet: the paths' and the phantom paths of ``lanes``, ``(n, 4)`` int32, which
+    the vertex flow does not count). Its
     heuristic is ``costs[2]`` times the Manhattan distance (1: consistent, the path is
     the cheapest; above 1, weighted A*, fewer expansions for dearer paths). Writes the
     path, ``source`` first and ``goal`` last, into ``path`` and returns its moves, or -1
     if ``goal`` cannot be reached. ``scratch`` (``(n, 4)`` int32) and ``generation`` work
-    as in :func:`shortest_path`; ``g_cost`` (``(n,)`` float64) holds the costs so far.
+    as in :func:`~warehouse_phys.planners.graph_search.shortest_path`; ``g_cost`` (``(n,)``
+    float64) holds the costs so far.
 
     A turning robot (``facing``: the move it faces, else -1) also pays ``costs[3]`` for
     each quarter turn, counted along the search tree (a move other than the one into the
@@ -113,7 +117,7 @@ def congestion_path(
             if other < 0 or scratch[other, 3] == generation:
                 continue
             vertex = flow[other, 0] + flow[other, 1] + flow[other, 2] + flow[other, 3]
-            contra = (flow[cell, k] + 1) * flow[other, (k + 2) % 4]
+            contra = (flow[cell, k] + 1) * (flow[other, (k + 2) % 4] + lanes[other, (k + 2) % 4])
             cost = g + 1.0 + costs[0] * vertex + costs[1] * contra
             if facing >= 0 and k != came:
                 cost += turn * (2.0 if k == (came + 2) % 4 else 1.0)

@@ -204,7 +204,8 @@ def make_table_metadata(
 
 
 def save_q_table(path: str | os.PathLike[str], q: np.ndarray, metadata: dict[str, Any]) -> Path:
-    """Save ``q`` and its ``metadata`` (see :func:`table_metadata`) as an ``.npz`` archive.
+    """Save ``q`` and its ``metadata`` (see :func:`~warehouse_phys.rl.qlearning.table_metadata`)
+    as an ``.npz`` archive.
 
     The archive holds the table as a float64 array ``"q"`` and the metadata as
     a JSON string ``"metadata"``: nothing that needs pickle to load. It is
@@ -225,9 +226,11 @@ def save_q_table(path: str | os.PathLike[str], q: np.ndarray, metadata: dict[str
         kind=table_kind(metadata),
     )
     text = json.dumps(metadata, sort_keys=True)
+    # No copy of a float64 table (numpy writes it into the archive a chunk at a time): a
+    # 2 GiB table is saved within the training budget.
+    table = q.astype(np.float64, copy=False)
     return atomic_write(
-        path,
-        lambda file: np.savez_compressed(file, q=q.astype(np.float64), metadata=np.array(text)),
+        path, lambda file: np.savez_compressed(file, q=table, metadata=np.array(text))
     )
 
 
@@ -457,5 +460,5 @@ def check_table(
             f"{where}: table shape {q.shape} does not match its {rows}x{cols} grid "
             f"(expected {expected}{', ' + kind if kind else ''})"
         )
-    if not np.isfinite(q).all():
+    if not _all_finite(q):  # a chunk at a time: no mask of the whole table
         raise error(f"{where}: table holds NaN or infinite values")

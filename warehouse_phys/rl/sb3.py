@@ -3,8 +3,8 @@
 Stable-Baselines3 has its own vector-environment API and cannot take what
 ``gym.make_vec`` returns. :func:`vec_env` makes the native vector environment
 (:class:`~warehouse_phys.envs.vector.WarehouseGridVectorEnv`, or the physics-backed
-:class:`~warehouse_phys.envs.vector.WarehousePhysicsVectorEnv`) and wraps it in
-:class:`SB3VecEnv`, a real ``stable_baselines3.common.vec_env.VecEnv``: every
+:class:`~warehouse_phys.envs.vector_physics.WarehousePhysicsVectorEnv`) and wraps it in
+``SB3VecEnv``, a real ``stable_baselines3.common.vec_env.VecEnv``: every
 floor is still stepped with a few array operations, no Python loop over
 environments. Install the extra first (``pip install "warehouse_phys[sb3]"``).
 
@@ -12,16 +12,29 @@ Every recipe below runs as written in ``tests/rl/test_sb3.py``, in the order giv
 (a later one may use the names an earlier one imported); the two that learn the
 default floor are the README's, and the tests check what their comments say.
 
+Pin PyTorch to one thread first. By default it runs a thread per core, and for
+networks this small the threads mostly wait on one another: on the 2-core
+development machine, with other work keeping it busy (load 5 to 11), the PPO recipe
+below took 64 to 136 s (32 to 66 s of CPU) with PyTorch's default two threads and 6 to
+16 s (3 to 5 s of CPU) with one; the DQN recipe 62 s (42 s of CPU) with one thread,
+and had not finished after 25 minutes with two. :func:`evaluate_model` plays the trained policy
+from the start against every target, as ``python -m warehouse_phys.train``
+evaluates its table, and says in a line how it did.
+
 PPO on the grid twin, one-hot observations for the MLP. SB3's default rollout,
 2,048 steps per floor, makes two updates in 20k steps, which reach 6 of the 12
 targets; short rollouts and large batches (twenty updates) learn the floor::
 
+    import torch
     from stable_baselines3 import PPO
-    from warehouse_phys.rl.sb3 import vec_env
+    from warehouse_phys.rl.sb3 import evaluate_model, vec_env
 
+    torch.set_num_threads(1)  # one thread: far faster for a network this small
     env = vec_env("warehouse-robot-v0", num_envs=8, seed=0, observation="onehot")
     model = PPO("MlpPolicy", env, seed=0, n_steps=128, batch_size=256, device="cpu")
-    model.learn(20_000)  # all 12 targets reached, at least 10 by a shortest path
+    model.learn(20_000)
+    print(evaluate_model(model, observation="onehot").summary())
+    # all 12 targets reached, at least 10 by a shortest path
 
 DQN with its defaults learns the default floor, but with the sparse reward
 alone (nothing is lost by delaying, nothing by bumping into a wall) its policy
@@ -30,12 +43,15 @@ targets by a shortest path at 50k steps and none at 75k and 100k. A step
 penalty of 0.1 keeps it on the shortest paths (12 of 12 at 50k, 75k and 100k;
 0.01 is too small: 4 of 12 at 100k)::
 
+    import torch
     from stable_baselines3 import DQN
-    from warehouse_phys.rl.sb3 import vec_env
+    from warehouse_phys.rl.sb3 import evaluate_model, vec_env
 
+    torch.set_num_threads(1)
     env = vec_env("warehouse-robot-v0", num_envs=1, seed=0, step_penalty=0.1)
     model = DQN("MlpPolicy", env, seed=0, device="cpu")
-    model.learn(100_000)  # all 12 targets by a shortest path
+    model.learn(100_000)
+    print(evaluate_model(model).summary())  # all 12 targets reached by a shortest path
 
 Any keyword of the single environment goes through (``grid_rows``, ``layout``,
 ``observation``, ``step_penalty``, ``bump_penalty``, the physical keywords of
@@ -121,14 +137,23 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as gym
 import numpy as np
 
+from warehouse_phys.envs.base import onehot
 from warehouse_phys.envs.vector import WarehouseGridVectorEnv
+from warehouse_phys.rl.greedy_policy import Evaluation, evaluate
+from warehouse_phys.rl.qtable_file import TRAINING_MEMORY_BUDGET
 
 if TYPE_CHECKING:  # pragma: no cover - the sb3 extra is optional
     from stable_baselines3.common.vec_env import VecEnv
 
 INSTALL_HINT = 'pip install "warehouse_phys[sb3]"'
 
-__all__ = ["INSTALL_HINT", "SB3VecEnv", "black_death", "vec_env"]  # noqa: F822 - see __getattr__
+__all__ = [  # noqa: F822 - SB3VecEnv: see __getattr__
+    "INSTALL_HINT",
+    "SB3VecEnv",
+    "black_death",
+    "evaluate_model",
+    "vec_env",
+]
 
 
 def __getattr__(name: str) -> Any:
@@ -136,6 +161,43 @@ def __getattr__(name: str) -> Any:
     if name == "SB3VecEnv":
         return _adapter_class(_import_sb3().VecEnv)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def evaluate_model(model: Any, env_id: str = "warehouse-robot-v0", **kwargs: Any) -> Evaluation:
+    """How ``model``'s deterministic policy does on the single robot's floor: from the
+    start against every target, as ``train`` evaluates a table
+    (:func:`warehouse_phys.rl.greedy_policy.evaluate`; ``.summary()`` says it in a line).
+
+    ``model`` is a Stable-Baselines3 model, or anything with its
+    ``predict(observations, deterministic=True)``; ``env_id`` and ``kwargs`` make the
+    environment it was trained on (``observation="onehot"``, a ``layout``, ...). The
+    policy is asked once, in one batch, for its action on every reachable cell with the
+    package on every target cell; the episodes are then played by the floor's rules.
+
+    Raises:
+        ValueError: if the table of those actions would take more than
+            :data:`~warehouse_phys.rl.qtable_file.TRAINING_MEMORY_BUDGET` bytes, and as
+            :func:`~warehouse_phys.rl.greedy_policy.evaluate`.
+    """
+    env = gym.make(env_id, **kwargs)
+    try:
+        base, grid = env.unwrapped, env.unwrapped.grid
+        rows, cols = grid.rows, grid.cols
+        if (rows * cols) ** 2 * 4 > TRAINING_MEMORY_BUDGET:
+            raise ValueError(
+                f"a {rows}x{cols} floor's table of actions would take more than "
+                f"{TRAINING_MEMORY_BUDGET:,} bytes; evaluate on a smaller floor"
+            )
+        cells, goals = np.flatnonzero(grid.reachable_mask), grid.target_indices
+        here, there = np.repeat(cells, len(goals)), np.tile(goals, len(cells))
+        states = np.stack([here // cols, here % cols, there // cols, there % cols], axis=1)
+        observations = onehot(states, rows, cols) if base.observation == "onehot" else states
+        actions, _ = model.predict(observations, deterministic=True)
+        table = np.zeros((rows, cols, rows, cols, 4), dtype=np.uint8)
+        table[(*states.T, np.asarray(actions, dtype=np.int64).reshape(-1))] = 1
+        return evaluate(env, table)
+    finally:
+        env.close()
 
 
 def black_death(parallel_env: Any) -> Any:

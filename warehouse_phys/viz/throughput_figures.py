@@ -1,7 +1,8 @@
 """Figures of lifelong fleet runs: throughput over time (:func:`throughput_figure`), where
 robots waited (:func:`congestion_figure`), throughput against fleet size
-(:func:`throughput_by_robots_figure`) and the planners' scaling beside the congestion-free
-ceiling (:func:`planner_scaling_figure`).
+(:func:`throughput_by_robots_figure`), the planners' scaling beside the congestion-free
+ceiling (:func:`planner_scaling_figure`) and an evaluation suite's fractions of the best
+known solutions (:func:`suite_figure`).
 """
 
 from __future__ import annotations
@@ -142,4 +143,35 @@ def planner_scaling_figure(scaling: Mapping[str, object] | str | os.PathLike[str
     ax.set_title(f"{scaling['layout']}, lifelong, {scaling['steps']} steps, seed 0")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
+    return figure
+
+
+def suite_figure(rows: list[Mapping[str, object]], title: str = "") -> Figure:
+    """An evaluation suite's results (``python -m warehouse_phys.evaluate``'s rows): for
+    each instance, a bar per planner, the mean over its seeds of the fraction of the best
+    known solution, with the 0.9 mark, each bar's figure written on it (where the
+    instance has no best known, no bar: its throughput a step, written at the foot)."""
+    instances = list(dict.fromkeys(str(row["instance"]) for row in rows))
+    planners = list(dict.fromkeys(str(row["planner"]) for row in rows))
+    figure = new_figure((max(5.0, 1.1 * len(instances) * max(1, len(planners)) + 2), 3.8))
+    ax = figure.add_subplot()
+    width = 0.8 / max(1, len(planners))
+    for k, planner in enumerate(planners):
+        for i, instance in enumerate(instances):
+            mine = [r for r in rows if r["instance"] == instance and r["planner"] == planner]
+            if not mine:
+                continue
+            fractions = [r["fraction_of_best"] for r in mine]
+            known = all(f is not None for f in fractions)
+            value = float(np.mean(fractions if known else [r["per_step"] for r in mine]))
+            bar = ax.bar(i + (k - (len(planners) - 1) / 2) * width, value if known else 0.0,
+                         width, color=f"C{k}", label=planner if i == 0 else None)  # fmt: skip
+            text = f"{value:.2f}" if known else f"{value:.1f}/step"
+            ax.bar_label(bar, [text], fontsize=7, rotation=90, padding=2)
+    ax.axhline(0.9, color="#D55E00", linestyle="--", linewidth=1, label="0.9 of best known")
+    ax.set_xticks(range(len(instances)), instances, rotation=30, ha="right", fontsize=8)
+    ax.set_ylabel("fraction of the best known")
+    ax.set_ylim(0, 1.35)
+    ax.legend(fontsize="small", ncols=3, loc="upper left")
+    _set_wrapped_title(ax, title or "Evaluation suite")
     return figure

@@ -1,17 +1,25 @@
 """``python -m warehouse_phys.simulate``: run a fleet policy on a floor and measure it.
 
-    python -m warehouse_phys.simulate --layout ../shared/maps/kiva-33-46.map --robots 192
+::
+
+    python -m warehouse_phys.simulate --layout kiva-33-46 --robots 192
     python -m warehouse_phys.simulate --layout warehouse --robots 128 --policy shortest
     python -m warehouse_phys.simulate --layout aisles --robots 4 --on-delivery park \\
         --policy runs/grid-aisles-seed0-.../qtable.npz
     python -m warehouse_phys.simulate --moves rotate \\
-        --instance ../shared/lorr/2023-main-warehouse/MR23-I-10.json
+        --instance lorr-example/random-64-64-10-seed0-400.json
 
-A fleet of ``--robots`` robots on ``--layout`` (a preset, a ``.map`` file or a text
-layout file; or ``--rows``/``--cols``) follows ``--policy`` for ``--steps`` joint
-steps: ``pibt`` (the planner of :mod:`warehouse_phys.planners.pibt`), ``shortest``
-(each robot a shortest move, waiting when blocked), ``random``, or a fleet table
-written by ``python -m warehouse_phys.train --robots N``. ``--on-delivery``
+(the last, an instance drawn by :func:`~warehouse_phys.lorr.generator.make_instance` on
+the shipped map ``random-64-64-10-seed0`` and written by
+:func:`~warehouse_phys.lorr.instances.write_instance` into ``lorr-example/``). A fleet
+of ``--robots`` robots on ``--layout`` (a preset, a shipped benchmark map's name, a
+``.map`` file or a text layout file; or ``--rows``/``--cols``) follows ``--policy`` for
+``--steps`` joint steps: a planner of :data:`~warehouse_phys.rl.fleet_planners.PLANNERS` by its name
+(``pibt``, the planner of :mod:`warehouse_phys.planners.pibt`, by default; ``guided`` and
+its ablations; those of :data:`~warehouse_phys.rl.fleet_planners.TURNING_ONLY` for
+turning robots), ``shortest`` (each
+robot a shortest move, waiting when blocked), ``random``, or a fleet table written by
+``python -m warehouse_phys.train --robots N``. ``--on-delivery``
 (default ``new_package``: lifelong) says what a robot does with a delivered
 package; ``--physics`` drives the physics twin. The command prints the throughput
 (deliveries per step), deliveries, waits and refused moves (one-shot, also the
@@ -76,6 +84,7 @@ from warehouse_phys.apps.cli import (
     bounded_int,
     floor_from_layout,
     opened_run_folder,
+    warnings_in_one_line,
     written_note,
 )
 from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
@@ -86,6 +95,13 @@ from warehouse_phys.apps.simulate.lockstep import (
     run_baselines,
     simulate,
 )
+from warehouse_phys.apps.simulate.on_kit import (
+    add_kit_arguments,
+    kit_rules,
+    kit_system,
+    simulate_kit,
+    write_kit_output,
+)
 from warehouse_phys.apps.simulate.on_ticks import (
     add_tick_arguments,
     default_ticks,
@@ -94,6 +110,7 @@ from warehouse_phys.apps.simulate.on_ticks import (
     tick_options,
 )
 from warehouse_phys.apps.simulate.results import (
+    BASELINE_POLICIES,
     DEFAULT_STEPS,
     INSTANCE_STEPS,
     POLICIES,
@@ -108,9 +125,12 @@ from warehouse_phys.envs.fleet.setup import DELIVERY_MODES
 from warehouse_phys.lorr.instances import SCHEDULED, read_instance
 from warehouse_phys.lorr.output import RunRecord
 from warehouse_phys.lorr.scheduling import SCHEDULERS
+from warehouse_phys.lorr.startkit.system import KitSystem
 from warehouse_phys.rl.fleet_evaluation import FleetPolicy
+from warehouse_phys.rl.fleet_planners import PLANNERS
 from warehouse_phys.world.headings import MOVE_MODELS
 from warehouse_phys.world.layouts import FLEET_PRESETS, PRESETS
+from warehouse_phys.world.maps import MAPS
 
 #: The command's names, its own and those its modes' modules define: all import from here.
 __all__ = [
@@ -133,6 +153,8 @@ __all__ = [
 ]
 
 PROG = "python -m warehouse_phys.simulate"
+#: Most steps (or ticks) a run may last: as many as a fleet's ``max_cycles``.
+MAX_STEPS = 10**9
 DEFAULT_RUNS_DIR = Path("runs")
 #: Frames of the GIF by default: enough to see the traffic, few enough to stay small.
 DEFAULT_FRAMES = 64
@@ -143,15 +165,20 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Run a fleet policy on a floor; print and save its throughput.",
     )
-    parser.add_argument("--layout", help="a preset, a MovingAI .map file or a layout file")
+    parser.add_argument(
+        "--layout",
+        help=f"a preset, a benchmark map the package ships ({', '.join(MAPS)}), a MovingAI "
+        ".map file or a layout file",
+    )
     parser.add_argument(
         "--instance", type=Path,
         help="a League of Robot Runners instance (.json): its floor, robots and tasks (one "
         "naming agentCounter or delayConfig runs on ticks)",
     )  # fmt: skip
     parser.add_argument(
-        "--moves", choices=MOVE_MODELS, default="grid",
-        help="grid: four directions (default); rotate: robots turn in place and drive forward",
+        "--moves", choices=MOVE_MODELS,
+        help="grid: four directions (a floor's default); rotate: robots turn in place and "
+        "drive forward (an instance's default, the competition's robots)",
     )  # fmt: skip
     parser.add_argument(
         "--scheduler", choices=tuple(SCHEDULERS),
@@ -169,11 +196,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--policy",
         default="pibt",
-        help="pibt (default), guided (PIBT following traffic-priced guide paths), shortest, "
-        "random, or a table (.npz)",
+        help=f"a planner: {', '.join(PLANNERS)} (pibt by default; guided: PIBT following "
+        "traffic-priced guide paths; *-ops, *-repair: turning robots only, --moves rotate); "
+        f"a baseline: {', '.join(BASELINE_POLICIES)}; or a fleet table (.npz) from train",
     )
     parser.add_argument(
-        "--steps", type=bounded_int(1, "a positive number of steps"),
+        "--steps", type=bounded_int(1, f"a number of steps from 1 to {MAX_STEPS:,}", MAX_STEPS),
         help=f"joint steps (default {DEFAULT_STEPS}; an instance: {INSTANCE_STEPS:,}); on "
         f"ticks: ticks (default: an instance's {INSTANCE_STEPS:,}, as LoRR 2026 counts; a "
         f"floor's {DEFAULT_STEPS} moves' worth)",
@@ -183,7 +211,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="what a robot does with a delivered package (default new_package: lifelong)",
     )  # fmt: skip
     parser.add_argument("--physics", action="store_true", help="drive the physics twin")
+    parser.add_argument(
+        "--physics-threads", metavar="K", type=bounded_int(1, "threads from 1 to 64", 64),
+        default=1,
+        help="with --physics: hold the bodies in K regions of the floor stepped in parallel "
+        "(the same bodies for a seed and K; default 1)",
+    )  # fmt: skip
     add_tick_arguments(parser)
+    add_kit_arguments(parser)
     parser.add_argument("--seed", type=bounded_int(0, "a seed of 0 or more"), default=0)
     parser.add_argument(
         "--frames", type=bounded_int(0, "a number of frames of 0 or more"),
@@ -203,6 +238,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 @stops_on_sigterm
+@warnings_in_one_line(PROG)
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status: 0, 2 for a bad command line, 1 when
     a file cannot be written, 130 on Ctrl-C and 143 on SIGTERM (saying what was written;
@@ -223,6 +259,8 @@ def main(argv: list[str] | None = None) -> int:
             result, frames, record = _run(args, env, policy, label)
             if record is not None:  # before the baselines run the errand list again
                 write_lorr_output(folder, env, result, record)
+            elif isinstance(env, KitSystem):  # its own output file: the kit's 2026 one
+                write_kit_output(folder, env)
             runs = {result.policy: result}
             if _compare(args, env):
                 runs |= run_baselines(env, steps=args.steps, seed=args.seed, skip=result.policy)
@@ -230,14 +268,16 @@ def main(argv: list[str] | None = None) -> int:
     except (UsageError, RunFolderError) as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
-    except RunWriteError as error:
-        print(f"{PROG}: error: {error}", file=sys.stderr)
+    except RunWriteError as error:  # a full disk, say: which files are whole
+        print(f"{PROG}: error: {error} ({written_note(folder)})", file=sys.stderr)
         return 1
     except KeyboardInterrupt as interrupt:
         stopped, status = interruption(interrupt)
         print(f"{PROG}: {stopped}; {written_note(folder)}", file=sys.stderr)
         return status
     print(result.summary())
+    if result.safety_measures() is not None:
+        print(result.safety_measures())
     for note in result.not_simulated:
         print(f"not simulated: {note}")
     if len(runs) > 1:
@@ -259,7 +299,10 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
         raise UsageError("give --layout or --rows/--cols, not both")
     if args.scheduler is not None and args.instance is None:
         raise UsageError("--scheduler hands out an instance's tasks: give --instance")
+    if args.physics_threads != 1 and not args.physics:
+        raise UsageError("--physics-threads steps the physics twin's bodies: give --physics")
     instance = None
+    args.moves = args.moves or ("grid" if args.instance is None else "rotate")
     if args.instance is not None:
         given = [flag for flag, value in (("--layout", args.layout), ("--rows", args.rows),
                  ("--cols", args.cols), ("--robots", args.robots),
@@ -290,13 +333,30 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
         args.steps = DEFAULT_STEPS if instance is None else INSTANCE_STEPS
     if args.instance is None:
         floor |= {"num_robots": args.robots or 4, "on_delivery": args.on_delivery or "new_package"}
+    if kit_rules(instance, ticks is not None, args.moves, args.physics):
+        return kit_system(
+            instance,
+            ticks,
+            policy=args.policy,
+            scheduler=args.scheduler,
+            seed=args.seed,
+            delays_from=args.delays_from,
+            ticks=args.steps,
+        ), None
+    if args.delays_from is not None:
+        raise UsageError(
+            "--delays-from replays a start-kit run's delays by the kit's rules: an "
+            "instance on ticks, turning robots (--moves rotate), no --physics"
+        )
     try:
         if ticks is not None:
             return tick_fleet(floor, ticks, ticks=args.steps, physics=args.physics,
-                              seed=args.seed, moves=args.moves), None  # fmt: skip
+                              seed=args.seed, moves=args.moves, planner=args.policy,
+                              physics_threads=args.physics_threads), None  # fmt: skip
+        bodies = {"physics_threads": args.physics_threads, "track_gaps": False}  # safety measures
         env = parallel_env(
             physics=args.physics, max_cycles=args.steps, moves=args.moves,
-            observation=_observation_of(args.policy), **floor,
+            observation=_observation_of(args.policy), **floor, **(bodies if args.physics else {}),
         )  # fmt: skip
         policy = make_policy(args.policy, env, seed=args.seed)
     except (ValueError, TypeError, OSError) as error:
@@ -305,15 +365,15 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
 
 
 def _fleet_layout(name: str) -> str | tuple[str, ...]:
-    """The fleet's ``layout=`` for ``--layout name``: a preset's name or a map's path as
-    given (the fleet reads them), else a layout text file's rows, read as train, play and
-    sweep read them.
+    """The fleet's ``layout=`` for ``--layout name``: a preset's name, a shipped map's name
+    or a map's path as given (the fleet reads them), else a layout text file's rows, read
+    as train, play and sweep read them.
 
     Raises:
         UsageError: for a name that is neither a preset nor a file, or a file that is not
             a layout.
     """
-    if name in PRESETS or name in FLEET_PRESETS or name.endswith(".map"):
+    if name in PRESETS or name in FLEET_PRESETS or name in MAPS or name.endswith(".map"):
         return name
     rows = floor_from_layout(name).layout
     return name if rows is None else rows
@@ -355,11 +415,15 @@ def _run(
     with a progress bar; returns the measures, the frames and an instance's record."""
     from tqdm import tqdm
 
-    if policy is None:  # on ticks
+    if isinstance(env, KitSystem):  # by the start kit's rules: it keeps its own output
+        play, turning, unit = functools.partial(simulate_kit, env), True, "tick"
+    elif policy is None:  # on ticks
         play, turning, unit = functools.partial(simulate_ticks, env), env.turning, "tick"
     else:
         play, turning, unit = functools.partial(simulate, env, policy), env.turning, "step"
-    record = None if env.instance is None else RunRecord(env.num_robots, turning=turning)
+    record = None
+    if env.instance is not None and not isinstance(env, KitSystem):
+        record = RunRecord(env.num_robots, turning=turning)
     # The floor's and the fleet's long-lived objects (tens of thousands of cells on a large
     # map) leave Python's full collections, which otherwise walk them and stall a step.
     gc.freeze()

@@ -118,7 +118,7 @@ def simulate(
         policy=name,
         seed=seed,
         on_delivery=env.on_delivery,
-        physics=env.physics,
+        physics=env.physics is not None,
         deliveries=np.array(deliveries, dtype=np.int64),
         waits=waits.reshape(grid.rows, grid.cols),
         refused=int(refused),
@@ -131,6 +131,7 @@ def simulate(
         not_simulated=_not_simulated(env.instance),
         tasks=None if errands is None else np.array(tasks_at, dtype=np.int64),
         scheduler=_scheduler_name(errands),
+        safety=None if getattr(env, "safety", None) is None else env.safety.summary(),
         **(
             {}
             if env.lifelong

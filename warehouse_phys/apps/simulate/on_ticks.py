@@ -23,10 +23,14 @@ The flags (:func:`add_tick_arguments`):
 - ``--delay-seed S``: the delays' seed (default: the ``delayConfig``'s, else 0); it
   needs delays to seed.
 
-Four-direction robots (``--moves grid``, the default) and LoRR's turning robots
-(``--moves rotate``: a forward move or a quarter turn each takes ``agentCounter``
-ticks) run on ticks; other policies than ``pibt`` and one-shot ``--on-delivery`` are
-refused in one line (the executor runs PIBT's lifelong plans).
+Four-direction robots (``--moves grid``, a floor's default) and LoRR's turning robots
+(``--moves rotate``, an instance's default: a forward move or a quarter turn each takes
+``agentCounter`` ticks) run on ticks, planned by ``--policy pibt`` or ``guided`` (PIBT
+windows, :func:`~warehouse_phys.execution.windows.pibt_window`); other policies and
+one-shot ``--on-delivery`` are refused in one line (the executor runs a planner's lifelong
+plans). Robots here are discs kept ``min_gap`` apart (our model); an instance run with
+turning robots and without ``--physics`` runs by the start kit's rules instead, its
+robots squares (:mod:`warehouse_phys.apps.simulate.on_kit`).
 
 ``--steps`` counts **ticks** in such a run: 5,000 by default on an instance, as LoRR
 2026 counts its ``simulationTime`` (execution ticks, its output's ``makespan``); on a
@@ -54,6 +58,7 @@ from warehouse_phys.apps.cli import UsageError, bounded_int
 from warehouse_phys.apps.simulate.results import DEFAULT_STEPS, INSTANCE_STEPS, Simulation
 from warehouse_phys.execution.delays import MAX_SEED, DelayConfig
 from warehouse_phys.execution.ticks import LORR_TICKS_PER_MOVE, MAX_TICKS_PER_MOVE
+from warehouse_phys.execution.windows import WINDOW_PLANNERS
 from warehouse_phys.lorr.instances import LorrInstance
 from warehouse_phys.lorr.output import RunRecord, actual_actions
 
@@ -127,8 +132,10 @@ def tick_options(args: argparse.Namespace, instance: LorrInstance | None) -> Tic
     lock-step run (no ``agentCounter``, no ``delayConfig``, no tick flag).
 
     Raises:
-        UsageError: one line, for ticks with a policy other than ``pibt`` or a one-shot
-            ``--on-delivery``, or ``--delay-seed`` with no delays.
+        UsageError: one line, for ticks with a policy that is not a planner of the
+            windows (:data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`: ``pibt``,
+            ``guided``) or a one-shot ``--on-delivery``, or ``--delay-seed`` with no
+            delays.
     """
     counter = None if instance is None else instance.agent_counter
     config = None if instance is None else instance.delay
@@ -141,9 +148,11 @@ def tick_options(args: argparse.Namespace, instance: LorrInstance | None) -> Tic
     named = [key for key, value in (("agentCounter", counter), ("delayConfig", config))
              if value is not None]  # fmt: skip
     why = f"{' and '.join(flags)} given" if flags else f"{instance.name} has {' and '.join(named)}"
-    if args.policy != "pibt":
-        raise UsageError(f"--policy {args.policy}: a run on ticks ({why}) executes PIBT's "
-                         "plans; other policies run in lock step")  # fmt: skip
+    if args.policy not in WINDOW_PLANNERS:
+        raise UsageError(
+            f"--policy {args.policy}: a run on ticks ({why}) executes the plans of "
+            f"{' or '.join(WINDOW_PLANNERS)}; other policies run in lock step"
+        )
     if args.on_delivery not in (None, "new_package"):
         raise UsageError(f"--on-delivery {args.on_delivery}: a run on ticks ({why}) is "
                          "lifelong (new_package)")  # fmt: skip
@@ -164,11 +173,12 @@ def default_ticks(instance: LorrInstance | None, options: TickOptions) -> int:
 
 def tick_fleet(
     floor: dict[str, Any], options: TickOptions, *, ticks: int, physics: bool, seed: int,
-    moves: str = "grid",
+    moves: str = "grid", physics_threads: int = 1, planner: str = "pibt",
 ) -> AsyncFleetEnv:  # fmt: skip
     """The asynchronous fleet on ``floor`` (the lock-step fleet's floor keywords:
     ``instance`` and ``record_errands``, or ``layout``/``grid_rows``/``grid_cols`` and
-    ``num_robots``; ``on_delivery`` is dropped) for ``ticks`` ticks.
+    ``num_robots``; ``on_delivery`` is dropped) for ``ticks`` ticks, its windows planned
+    by ``planner`` (:data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`).
 
     Raises:
         ValueError, TypeError: as the environment refuses its arguments.
@@ -178,6 +188,8 @@ def tick_fleet(
     kwargs = {key: value for key, value in floor.items() if key != "on_delivery"}
     return parallel_env(ticks_per_move=options.ticks_per_move, delays=options.delays,
                         max_cycles=ticks, physics=physics, seed=seed, moves=moves,
+                        planner=planner,
+                        **({"physics_threads": physics_threads} if physics else {}),
                         **kwargs)  # fmt: skip
 
 
@@ -321,11 +333,11 @@ def simulate_ticks(
     from warehouse_phys.envs.async_fleet import GO
 
     begun = time.process_time()
-    observations, _ = env.reset(seed=seed)
+    observations, _ = env.reset_arrays(seed=seed)  # arrays: no dict a robot a tick
     reset_seconds = time.process_time() - begun
     grid, errands = env.grid, env.errands
     cols = grid.cols
-    go = dict.fromkeys(env.possible_agents, GO)
+    go = np.full(env.num_robots, GO, dtype=np.int64)
     waits = np.zeros(grid.rows * cols, dtype=np.int64)
     deliveries, tasks_at, step_seconds, snaps = [], [], [], [0.0]
     camera = _Camera(grid, frames, steps, cell_px)
@@ -342,7 +354,7 @@ def simulate_ticks(
         errands_before, plans_before = env.errands_done, execution.measures.plans
         tasks_before = 0 if errands is None else errands.tasks_done
         begun = time.process_time()
-        observations, _, _, _, infos = env.step(go)
+        observations, _, _, _, infos = env.step_arrays(go)
         step_seconds.append(time.process_time() - begun)
         deliveries.append(env.errands_done - errands_before)
         if errands is not None:
@@ -354,7 +366,7 @@ def simulate_ticks(
             planned = execution.measures.plans > plans_before
             record.add(taken, taken, busy, step_seconds[-1] if planned else None)
         if env.physics is not None:
-            snaps.append(max(info["snap_error"] for info in infos.values()))
+            snaps.append(float(infos["snap_error"].max(initial=0.0)))
         camera.shoot(tick + 1, env, observations)
         if on_step is not None:
             on_step()
@@ -371,14 +383,17 @@ def simulate_ticks(
         ticks_per_move=execution.ticks_per_move, delays=env.delays,
         shares=execution.measures.shares(), plans=execution.measures.plans,
         min_gap=float(env.min_gap), max_snap_error=float(max(snaps)),
+        safety=None if env.safety is None else env.safety.summary(),
         delay_intervals=None if execution.delays is None else execution.delays.intervals_json(),
     ), camera.pictures  # fmt: skip
 
 
-def _goal_cells(observations: dict[str, np.ndarray], cols: int) -> np.ndarray:
+def _goal_cells(observations: np.ndarray | dict[str, np.ndarray], cols: int) -> np.ndarray:
     """``(N,)`` each robot's goal cell index, from its observation (goal row and column
-    follow its own cell's)."""
-    table = np.array(list(observations.values()), dtype=np.int64)
+    follow its own cell's), in array form or PettingZoo's dict."""
+    if isinstance(observations, dict):
+        observations = list(observations.values())
+    table = np.asarray(observations, dtype=np.int64)
     return table[:, 2] * cols + table[:, 3]
 
 
@@ -393,9 +408,9 @@ class _Camera:
         self.pictures: list[np.ndarray] = []
         self.seconds: list[float] = []
 
-    def shoot(self, tick: int, env: AsyncFleetEnv, observations: dict[str, np.ndarray]) -> None:
+    def shoot(self, tick: int, env: AsyncFleetEnv, observations: np.ndarray) -> None:
         """Draw the floor after ``tick`` ticks if it is one of the shots."""
-        if tick not in self.shots or not observations:
+        if tick not in self.shots or not len(observations):
             return
         from warehouse_phys.drawing.map_frames import fleet_map_frame
 

@@ -30,8 +30,13 @@ from warehouse_phys.rl.fleet_evaluation import (
     shortest_path_policy,
     worse_policies,
 )
+from warehouse_phys.rl.fleet_planners import PLANNERS, TURNING_ONLY, planner_policy
 
-POLICIES = ("pibt", "guided", "shortest", "random")
+#: The baselines by name: shortest moves (waiting when blocked), and random moves.
+BASELINE_POLICIES = ("shortest", "random")
+#: Every policy ``--policy`` takes by name: each planner of
+#: :data:`~warehouse_phys.rl.fleet_planners.PLANNERS` (their one list), then the baselines.
+POLICIES = (*PLANNERS, *BASELINE_POLICIES)
 RUN_FILES = ("summary.json", "throughput.png", "congestion.png", "fleet.gif", "lorr-output.json")
 #: Steps of a run by default, and of an instance's (the competition's count).
 DEFAULT_STEPS, INSTANCE_STEPS = 256, 5000
@@ -80,6 +85,10 @@ class Simulation:
     tasks: np.ndarray | None = None
     #: A 2024 or later instance's scheduler, by its name (None for the others).
     scheduler: str | None = None
+    #: Physics runs: the bodies' measured safety
+    #: (:meth:`~warehouse_phys.physics.safety.SafetyRecord.summary`: closest approach,
+    #: contacts deeper than the collision slop, ...), top-level fields of ``summary.json``.
+    safety: dict[str, Any] | None = None
 
     @property
     def steps(self) -> int:
@@ -200,8 +209,21 @@ class Simulation:
             "moves": self.moves,
             **self._one_shot_json(),
             **self._instance_json(),
+            **(self.safety or {}),
             "deliveries_per_step": self.deliveries.tolist(),
         }
+
+    def safety_measures(self) -> str | None:
+        """A physics run's measured safety in one line (``None`` for other runs)."""
+        if not self.safety:
+            return None
+        closest, bound = self.safety["closest_approach"], self.safety["closest_approach_bound"]
+        near = "no two within a cell" if closest is None else f"{closest:.3f} cells"
+        return (
+            f"bodies: closest approach {near} (the twin's bound: {bound:.3f}); contacts "
+            f"deeper than the collision slop: {self.safety['body_contacts']:,} body-body, "
+            f"{self.safety['wall_contacts']:,} body-wall"
+        )
 
     def _instance_json(self) -> dict[str, Any]:
         if self.tasks is None:
@@ -237,16 +259,13 @@ def make_policy(name: str, env: WarehouseFleetEnv, *, seed: int) -> FleetPolicy:
     """The fleet policy called ``name``: one of :data:`POLICIES` or a fleet table's path.
 
     Raises:
-        ValueError: for an unknown name, or a table that does not fit ``env``'s floor.
+        ValueError: for an unknown name, a planner of turning robots for robots that do
+            not turn, or a table that does not fit ``env``'s floor.
     """
-    if name == "pibt":
-        from warehouse_phys.rl.fleet_planners import pibt_policy
-
-        return pibt_policy(seed=seed)
-    if name == "guided":
-        from warehouse_phys.rl.fleet_planners import guided_pibt_policy
-
-        return guided_pibt_policy(seed=seed)
+    if name in TURNING_ONLY and getattr(env, "moves", "grid") != "rotate":
+        raise ValueError(f"policy {name!r} plans turning robots only: give --moves rotate")
+    if name in PLANNERS:
+        return planner_policy(name, seed=seed)
     if name == "shortest":
         return shortest_path_policy
     if name == "random":

@@ -24,8 +24,11 @@ status 2 and says so.
 Nothing waits for resources that cannot come: a grid of more than
 :data:`~warehouse_phys.apps.sweep.trials.MAX_TRIALS` trials and ``--cpus-per-trial``
 beyond the machine's (or the cluster's) CPUs are refused before anything is built, and
-an ``--address`` where no Ray cluster answers fails within seconds, each in one line. On SIGINT or
-SIGTERM the Ray processes the sweep started are shut down before it exits.
+an ``--address`` where no Ray cluster answers fails within seconds, each in one line with
+exit status 2 (a local Ray that cannot start: 1). On SIGINT or SIGTERM (exit status 130 or
+143) the Ray processes the sweep started are shut down before it exits. A sweep that ends
+before its tables with nothing in its new folder but its lock (no Ray, a refused
+argument, an early interrupt) leaves no folder behind, ``sweeps/`` included.
 
 A killed driver (SIGKILL) cannot shut Ray down, yet running the sweep again in the
 same folder at once is safe all the same: :mod:`~warehouse_phys.apps.sweep.resume`
@@ -50,11 +53,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int
-from warehouse_phys.apps.interrupts import Terminated
+from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int, warnings_in_one_line
+from warehouse_phys.apps.interrupts import Terminated, deferred, stops_on_sigterm
 from warehouse_phys.apps.runs import ENVIRONMENTS
 from warehouse_phys.apps.sweep.on_ray import (
     CONNECT_TIMEOUT,
+    AddressRefusedError,
     RayUnavailableError,
     _terminated,
     check_address,
@@ -90,6 +94,7 @@ from warehouse_phys.apps.sweep.trials import (
     trials_from_args,
     write_results,
 )
+from warehouse_phys.files.runfolder import make_folders, remove_empty
 from warehouse_phys.rl.qlearning import QLearningConfig
 from warehouse_phys.world.grid import DEFAULT_COLS, DEFAULT_ROWS
 from warehouse_phys.world.layout_text import MAX_SIDE, MIN_SIDE
@@ -111,6 +116,7 @@ __all__ = [
     "RESULTS_JSON",
     "SUMMARY_PNG",
     "SWEEP_ENTRIES",
+    "AddressRefusedError",
     "RayUnavailableError",
     "Setting",
     "SupersededError",
@@ -214,8 +220,12 @@ def _seeds(text: str) -> list[int]:
     return list(range(first, last + 1))
 
 
+@stops_on_sigterm
+@warnings_in_one_line(PROG)
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+    """Run the command line; returns the exit status: 0, 2 for a refused argument (an
+    ``--address`` where no cluster answers included), 1 when trials failed, a local Ray
+    could not start or the folder cannot be written, 130 on Ctrl-C and 143 on SIGTERM."""
     try:
         args = build_parser().parse_args(argv)
         settings = settings_from_args(args)  # refuses a grid too big before building it
@@ -237,7 +247,7 @@ def main(argv: list[str] | None = None) -> int:
         sweep_dir = args.out or DEFAULT_SWEEPS_DIR / time.strftime("%Y%m%d-%H%M%S")
         check_sweep_folder(sweep_dir)
         return _sweep(args, trials, sweep_dir)
-    except UsageError as error:
+    except (UsageError, AddressRefusedError) as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
     except RayUnavailableError as error:
@@ -251,23 +261,35 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _sweep(args: argparse.Namespace, trials: list[Trial], sweep_dir: Path) -> int:
-    created = not sweep_dir.exists()
+    created: list[Path] = []  # the folders this sweep made: its own, and sweeps/ at first
+    handle, ended = None, False
     try:
-        sweep_dir.mkdir(parents=True, exist_ok=True)
-        handle, run = take_sweep_lock(sweep_dir)
-    except OSError as error:
-        print(f"{PROG}: error: cannot write {sweep_dir}: {error.strerror}", file=sys.stderr)
-        return 1
-    try:
-        return _run_sweep(args, trials, sweep_dir, run)
-    except (RayUnavailableError, UsageError):
-        if created:  # no Ray, no trial: leave no empty folder behind
-            with contextlib.suppress(OSError):
-                (sweep_dir / LOCK_FILE).unlink()
-                sweep_dir.rmdir()
-        raise
+        try:
+            with deferred():  # an interrupt waits until the folder is made and locked
+                created = make_folders(sweep_dir, exist_ok=True)
+                handle, run = take_sweep_lock(sweep_dir)
+        except OSError as error:
+            print(f"{PROG}: error: cannot write {sweep_dir}: {error.strerror}", file=sys.stderr)
+            return 1
+        status = _run_sweep(args, trials, sweep_dir, run)
+        ended = True
+        return status
     finally:
-        os.close(handle)
+        if not ended:  # no Ray, a refused argument, an interrupt: leave no empty folder
+            _remove_unused(sweep_dir, created)
+        if handle is not None:
+            os.close(handle)
+
+
+def _remove_unused(sweep_dir: Path, created: list[Path]) -> None:
+    """Remove the folders this sweep ``created`` (:func:`make_folders`) while nothing but
+    its lock file is in them: a sweep that ended before any trial wrote a file."""
+    if not created:
+        return
+    with contextlib.suppress(OSError):
+        if {entry.name for entry in os.scandir(sweep_dir)} <= {LOCK_FILE}:
+            (sweep_dir / LOCK_FILE).unlink(missing_ok=True)
+    remove_empty(created)
 
 
 def _run_sweep(args: argparse.Namespace, trials: list[Trial], sweep_dir: Path, run: str) -> int:

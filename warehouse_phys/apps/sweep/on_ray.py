@@ -36,6 +36,11 @@ class RayUnavailableError(Exception):
     """No Ray cluster could be reached or started; the message says why, in one line."""
 
 
+class AddressRefusedError(RayUnavailableError):
+    """An ``--address`` refused: not an address, or no Ray cluster answers there (``auto``:
+    none running). A refused argument, as the command lines' exit status 2 says."""
+
+
 #: Set once SIGTERM arrives: Tune may re-raise the interrupt as a plain KeyboardInterrupt.
 _terminated = threading.Event()
 
@@ -51,13 +56,14 @@ def check_address(address: str) -> None:
     Ray itself retries an address for minutes. ``auto`` and ``local`` are left to Ray.
 
     Raises:
-        RayUnavailableError: if no connection opens within :data:`CONNECT_TIMEOUT`.
+        AddressRefusedError: if ``address`` is not an address, or no connection opens
+            within :data:`CONNECT_TIMEOUT`.
     """
     if address in ("auto", "local"):
         return
     host, colon, port = address.removeprefix("ray://").rpartition(":")
     if not colon or not port.isdigit() or not host:
-        raise RayUnavailableError(
+        raise AddressRefusedError(
             f"--address {address}: expected host:port, ray://host:port, auto or local"
         )
     try:
@@ -65,7 +71,7 @@ def check_address(address: str) -> None:
             pass
     except (OSError, OverflowError) as error:
         reason = getattr(error, "strerror", None) or str(error) or type(error).__name__
-        raise RayUnavailableError(
+        raise AddressRefusedError(
             f"--address {address}: no Ray cluster answers: {reason}"
         ) from None
 
@@ -92,7 +98,9 @@ def ray_session(address: str | None, cpus_per_trial: int) -> Iterator[None]:
     ``KeyboardInterrupt``. A Ray already running in the process is used as it is.
 
     Raises:
-        RayUnavailableError: if no cluster answers at ``address``, or Ray cannot start.
+        AddressRefusedError: if no cluster answers at ``address``.
+        RayUnavailableError: if a local Ray (``address`` ``None`` or ``"local"``) cannot
+            start.
         UsageError: if the cluster has fewer CPUs than ``cpus_per_trial``.
     """
     import ray
@@ -116,8 +124,11 @@ def ray_session(address: str | None, cpus_per_trial: int) -> Iterator[None]:
                 ray.init(address=address, **options)
         except (ConnectionError, RuntimeError, ValueError) as error:
             lines = str(error).strip().splitlines() or [type(error).__name__]
-            where = "cannot start a local Ray" if address is None else f"--address {address}"
-            raise RayUnavailableError(f"{where}: {lines[0]}") from None
+            if address is None:
+                raise RayUnavailableError(f"cannot start a local Ray: {lines[0]}") from None
+            if address == "local":  # a local Ray asked for by name: no address refused
+                raise RayUnavailableError(f"--address local: {lines[0]}") from None
+            raise AddressRefusedError(f"--address {address}: {lines[0]}") from None
         if main_thread:
             signal.signal(signal.SIGTERM, _terminate)  # ray.init installs its own
         if address is not None:

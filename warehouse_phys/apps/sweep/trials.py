@@ -87,7 +87,8 @@ class Trial:
 
     def to_job(self, sweep_dir: Path, gif: bool, run: str | None = None) -> dict[str, Any]:
         """What a worker needs, as plain values (sent to Ray workers); with ``run``, the
-        token of the sweep's run (see :func:`take_sweep_lock`), which the worker checks."""
+        token of the sweep's run (see :func:`~warehouse_phys.apps.sweep.resume.take_sweep_lock`),
+        which the worker checks."""
         return {
             "env": self.env,
             "floor": asdict(self.floor),

@@ -23,13 +23,14 @@ from pettingzoo import AECEnv, ParallelEnv
 
 from warehouse_phys.drawing.render import DEFAULT_CELL_PX, WarehouseRenderer
 from warehouse_phys.drawing.text_frames import fleet_ansi_frame
+from warehouse_phys.envs.checks import checked_reset_options
 from warehouse_phys.envs.fleet.actions import FleetActions, aec_form
+from warehouse_phys.envs.fleet.arrays import FleetArrayForm
 from warehouse_phys.envs.fleet.observations import (
     MAX_GLOBAL_OBSERVATION_ROBOTS,
     NEIGHBOUR_BITS,
     OBSERVATIONS,
     FleetObservations,
-    robot_infos,
 )
 from warehouse_phys.envs.fleet.physics import drive_bodies, motion_frames, started_world
 from warehouse_phys.envs.fleet.setup import (
@@ -43,6 +44,8 @@ from warehouse_phys.lorr.instances import LorrInstance
 from warehouse_phys.lorr.scheduling import Scheduler
 from warehouse_phys.physics import PhysicsConfig
 from warehouse_phys.physics.batched import BatchedPhysicsWorld
+from warehouse_phys.physics.regions import check_threads
+from warehouse_phys.physics.safety import SafetyRecord
 from warehouse_phys.world.batched import step_rewards
 from warehouse_phys.world.headings import TURN_ACTIONS, joint_grants
 from warehouse_phys.world.placement import START_MODES
@@ -62,7 +65,7 @@ __all__ = [
 ]
 
 
-class WarehouseFleetEnv(FleetState, ParallelEnv):
+class WarehouseFleetEnv(FleetState, FleetArrayForm, ParallelEnv):
     """Robots on one warehouse floor, each delivering its own packages or a task list's errands.
 
     ## Description
@@ -166,7 +169,13 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
     no robot within reach. Robots out of reach stay farther apart than
     ``sqrt(2) (1 - e) - d`` and are not measured. It costs a read of every body
     after each physics step and a comparison of the robots within reach;
-    ``track_gaps=False`` leaves both out, and ``min_gap`` with them.
+    ``track_gaps=False`` leaves both out, and ``min_gap`` with them. Measured at every
+    physics step (``safety=True``, the default): ``closest_approach`` (the closest another
+    body's centre came to this robot's this episode [cells], ``inf`` beyond a cell),
+    ``body_contacts`` and ``wall_contacts`` (its contacts deeper than the collision slop;
+    a bump into a wall or shelf sinks in a little); :attr:`safety` has the fleet's.
+    ``reset_arrays``/``step_arrays`` are the same episode with arrays in robot order
+    instead of dicts (:mod:`~warehouse_phys.envs.array_form`).
 
     Planners and evaluators read the fleet through read-only arrays:
     :attr:`robot_cells` and :attr:`package_cells` ``(N, 2)``, :attr:`parked`,
@@ -210,7 +219,11 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
       :meth:`move_frames` gives the physics world's motion during the last step,
       one frame per physics step.
     - ``track_gaps`` (bool, default True): whether the physics world measures
-      ``min_gap``.
+      ``min_gap``; ``safety`` (bool, default True): whether it measures every physics
+      step (:attr:`safety`); ``physics_threads`` (1 to 64, default 1): the bodies held in
+      that many regions of the floor, stepped in parallel
+      (:mod:`~warehouse_phys.physics.regions`). The physics world takes as many robots
+      as this machine's memory holds (:data:`MAX_PHYSICS_ROBOTS`).
 
     ## Version History
     - v0: first version; turning robots and instances added without changing what
@@ -243,6 +256,8 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
         instance: LorrInstance | str | os.PathLike[str] | None = None,
         scheduler: Scheduler | None = None,
         record_errands: bool = False,
+        safety: bool = True,
+        physics_threads: int = 1,
         **physical: float,
     ) -> None:
         setup = set_up_fleet(
@@ -251,8 +266,9 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
             render_mode=render_mode, render_modes=self.metadata["render_modes"],
             on_delivery=on_delivery, starts=starts, track_gaps=track_gaps, moves=moves,
             instance=instance, scheduler=scheduler, record_errands=record_errands,
-            physical=physical,
+            safety=safety, physical=physical,
         )  # fmt: skip
+        self.physics_threads, self._safety = check_threads(physics_threads), safety
         self.instance, self.grid, self.num_robots = setup.instance, setup.grid, setup.num_robots
         self.on_delivery, self.max_cycles = setup.on_delivery, setup.max_cycles
         self.observation, self.render_mode, self._track_gaps = observation, render_mode, track_gaps
@@ -297,14 +313,26 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
         self._checked_agent(agent)
         return self._action_space
 
+    @property
+    def safety(self) -> SafetyRecord | None:
+        """The bodies' closest approach and contacts deeper than the collision slop this
+        episode (:class:`~warehouse_phys.physics.safety.SafetyRecord`; ``None`` in the
+        grid twin or with ``safety=False``)."""
+        return None if self.world is None else self.world.safety
+
+    def checked_action(self, agent: str, action: object) -> int:
+        """``action`` as an int of the action space, or an error naming ``agent`` (the AEC
+        form checks each robot's action as it is given)."""
+        return self._actions.one(agent, action)
+
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         """Every robot on a start cell with a new package (an instance fleet: its first
-        errand); ``seed`` seeds the generator.
-
-        ``options`` are accepted and ignored (PettingZoo's test suites pass some).
+        errand); ``seed`` seeds the generator. The fleet takes no ``options``: any is
+        refused but PettingZoo's tests' probe (``{"options": ...}``, ignored).
         """
+        checked_reset_options(options, ())
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
         n = self.num_robots
@@ -314,6 +342,7 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
             self.world = started_world(
                 self.world, self.grid, self.physics, self._cells, self._headings,
                 record_path=self.track_gaps or self.render_mode == "rgb_array",
+                threads=self.physics_threads, safety=self._safety,
             )  # fmt: skip
         live = np.arange(n)
         refused = np.zeros(n, dtype=bool)
@@ -325,6 +354,11 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
             raise ValueError("the episode is over (no live robots): call reset()")
         live = self._live_indices()
         joint = self._actions.joint(actions, self.agents, live)
+        return self._joint_step(joint, live)
+
+    def _joint_step(self, joint: np.ndarray, live: np.ndarray, *, arrays: bool = False) -> Any:
+        """The step of the checked ``joint`` action; its PettingZoo dicts, or (``arrays``)
+        its :class:`ArrayStep`."""
         floor = None if self.on_delivery != "leave" or self._on_floor.all() else self._on_floor
         moved, refused, bumped, headings = joint_grants(
             self.grid, self._here, joint, self._headings,
@@ -360,13 +394,18 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
             }
         else:
             truncations = dict.fromkeys(agents, False)
-        observations = self._observations(live)
-        infos = self._infos(live, refused, snap_errors, gaps)
+        if arrays:
+            result = self._array_step(live, arrived, refused, snap_errors, gaps, truncated)
+        else:
+            observations = self._observations(live)
+            infos = self._infos(live, refused, snap_errors, gaps)
         if truncated:
             self.agents = []
         elif not self.lifelong and delivered.size:
             self.agents = [agent for agent, ended in zip(agents, ends_robot, strict=True)
                            if not ended]  # fmt: skip
+        if arrays:
+            return result
         return observations, rewards, terminations, truncations, infos
 
     def render(self) -> np.ndarray | str | None:
@@ -424,32 +463,6 @@ class WarehouseFleetEnv(FleetState, ParallelEnv):
             self.agents, None if len(live) == self.num_robots else live, self._cells,
             self._packages, self._headings, self._on_floor,
         )  # fmt: skip
-
-    def _infos(
-        self,
-        live: np.ndarray,
-        refused: np.ndarray,
-        snap_errors: np.ndarray | None,
-        gaps: np.ndarray | None,
-    ) -> dict[str, dict[str, Any]]:
-        all_live = len(live) == self.num_robots  # no copies in the usual case
-        here, packages, deliveries = self._here, self._package_index, self._deliveries
-        if not all_live:
-            here, packages, refused, deliveries = (
-                a[live] for a in (here, packages, refused, deliveries)
-            )
-        optimal = self.distances.lookup(here, packages)
-        extra: dict[str, list] = {}
-        if self._errands is not None:
-            extra["tasks"] = self._errands.tasks_per_robot[live].tolist()
-        if self.physics:
-            if snap_errors is None:  # at a reset
-                snap_errors, gaps = np.zeros(self.num_robots), np.full(self.num_robots, np.inf)
-            extra["snap_error"] = snap_errors[live].astype(float).tolist()
-            if self.track_gaps:
-                extra["min_gap"] = gaps[live].astype(float).tolist()
-        return robot_infos(self.agents, optimal.tolist(), refused.tolist(), deliveries.tolist(),
-                           extra)  # fmt: skip
 
     def _package_list(self) -> list[tuple[int, int]]:
         return [tuple(p) for p in self._packages.tolist()]

@@ -84,7 +84,7 @@ class FleetAEC(parallel_to_aec_wrapper):
     def step(self, action: int | None) -> None:
         agent = self.agent_selection
         if not (self.terminations[agent] or self.truncations[agent]):
-            action = self.env._actions.one(agent, action)
+            action = self.env.checked_action(agent, action)
         super().step(action)
 
 

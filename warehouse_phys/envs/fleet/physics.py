@@ -28,15 +28,18 @@ def started_world(
     headings: np.ndarray | None,
     *,
     record_path: bool,
+    threads: int = 1,
+    safety: bool = False,
 ) -> BatchedPhysicsWorld:
     """``world`` with every robot as newly built on ``cells`` (``(N, 2)``), facing
     ``headings`` (turning robots); built on ``grid`` when ``world`` is ``None``
-    (``record_path``: whether each step records every body's path)."""
+    (``record_path``: whether each step records every body's path; ``threads``, its
+    regions; ``safety``: whether it measures every physics step)."""
     n = len(cells)
     if world is None:
         return BatchedPhysicsWorld(
             grid, physics, cells, np.zeros(n, dtype=np.int64), record_path=record_path,
-            headings=headings,
+            headings=headings, threads=threads, safety=safety,
         )  # fmt: skip
     world.restart(np.arange(n), cells, headings)  # every robot as newly built, in the same world
     return world

@@ -25,6 +25,7 @@ from warehouse_phys.lorr.errands import ErrandList, errand_list
 from warehouse_phys.lorr.instances import LorrInstance, as_instance
 from warehouse_phys.lorr.scheduling import Scheduler
 from warehouse_phys.physics import PhysicsConfig, check_controller, physics_config_from
+from warehouse_phys.physics.config import check_physics_robots, max_physics_robots
 from warehouse_phys.world.grid import WarehouseGrid, refuse_durations
 from warehouse_phys.world.headings import MOVE_MODELS
 from warehouse_phys.world.layouts import make_grid, suggested_time_limit
@@ -49,9 +50,11 @@ __all__ = [
 ]
 
 DELIVERY_MODES = ("park", "leave", "new_package")
-#: Most robots in the physics world (one pymunk space; a step of 1,024 random moves
-#: takes a few milliseconds of chipmunk and of the closest-approach diagnostic).
-MAX_PHYSICS_ROBOTS = 1024
+#: Most robots in the physics world: what this machine's memory holds
+#: (:func:`~warehouse_phys.physics.config.max_physics_robots`).
+MAX_PHYSICS_ROBOTS = max_physics_robots()
+#: Most steps an episode may last (``max_cycles``).
+MAX_CYCLES = 10**9
 #: An instance fleet's ``max_cycles`` by default: the competition's 5,000 steps.
 LORR_STEPS = 5000
 
@@ -112,6 +115,7 @@ def set_up_fleet(
     scheduler: Scheduler | None,
     record_errands: bool,
     physical: dict[str, float],
+    safety: object = True,
 ) -> FleetSetup:
     """A fleet's arguments (those of :class:`~warehouse_phys.envs.fleet.WarehouseFleetEnv`,
     ``render_modes`` the ones it renders, ``physical`` its physical keywords) checked,
@@ -129,6 +133,7 @@ def set_up_fleet(
     floor = {"grid_rows": grid_rows, "grid_cols": grid_cols, "layout": layout}
     instance, num_robots, lifelong = _checked_arguments(
         num_robots=num_robots, physics=physics, lifelong=lifelong, track_gaps=track_gaps,
+        safety=safety,
         record_errands=record_errands, observation=observation, on_delivery=on_delivery,
         starts=starts, moves=moves, floor=floor, instance=instance, scheduler=scheduler,
         max_cycles=max_cycles, render_mode=render_mode, render_modes=render_modes,
@@ -153,6 +158,7 @@ def _checked_arguments(
     physics: object,
     lifelong: object,
     track_gaps: object,
+    safety: object,
     record_errands: object,
     observation: object,
     on_delivery: object,
@@ -178,7 +184,7 @@ def _checked_arguments(
             in the order of the checks below.
     """
     flags = (("physics", physics), ("lifelong", lifelong), ("track_gaps", track_gaps),
-             ("record_errands", record_errands))  # fmt: skip
+             ("safety", safety), ("record_errands", record_errands))  # fmt: skip
     for name, flag in flags:
         if not isinstance(flag, bool):
             raise TypeError(f"{name} must be a bool, got {flag!r}")
@@ -222,10 +228,8 @@ def _checked_arguments(
 
 def _check_limits(num_robots: int, physics: bool, on_delivery: object, observation: str) -> None:
     """Refuse what the physics world or the ``"global"`` observation cannot take."""
-    if physics and num_robots > MAX_PHYSICS_ROBOTS:
-        raise ValueError(
-            f"the physics world takes at most {MAX_PHYSICS_ROBOTS} robots, got {num_robots}"
-        )
+    if physics:
+        check_physics_robots(num_robots)
     if physics and on_delivery == "leave":
         raise ValueError(
             "on_delivery='leave' is for the grid twin: in the physics world a robot's "
@@ -254,8 +258,8 @@ def _checked_max_cycles(
         max_cycles = LORR_STEPS if instance is not None else suggested_time_limit(grid)
     if isinstance(max_cycles, bool) or not isinstance(max_cycles, (int, np.integer)):
         raise TypeError(f"max_cycles must be an integer, got {max_cycles!r}")
-    if max_cycles < 1:
-        raise ValueError(f"max_cycles must be at least 1, got {number_text(max_cycles)}")
+    if not 1 <= max_cycles <= MAX_CYCLES:
+        raise ValueError(f"max_cycles must be 1 to {MAX_CYCLES:,}, got {number_text(max_cycles)}")
     return int(max_cycles)
 
 

@@ -4,8 +4,8 @@ placement at a reset and of deliveries (packages drawn or an instance's errands)
 
 :class:`FleetState` is the part of :class:`~warehouse_phys.envs.fleet.WarehouseFleetEnv`
 that holds this state: the environment sets the floor and placement it reads (the
-attributes annotated below) and calls :meth:`FleetState._place_robots` at every reset
-and :meth:`FleetState._deliver` after every step's moves. Planners and evaluators read
+attributes annotated below) and calls ``FleetState._place_robots`` at every reset
+and ``FleetState._deliver`` after every step's moves. Planners and evaluators read
 the views (:attr:`~FleetState.robot_cells`, :attr:`~FleetState.package_cells`, ...),
 never the arrays behind them.
 """
@@ -34,7 +34,7 @@ class FleetState:
     """The state of a fleet's robots, kept as arrays, and its read-only views.
 
     A base class of :class:`~warehouse_phys.envs.fleet.WarehouseFleetEnv`, which sets
-    the attributes annotated here before it calls :meth:`_init_state`.
+    the attributes annotated here before it calls ``_init_state``.
     """
 
     grid: WarehouseGrid

@@ -90,7 +90,7 @@ class PIBT:
     over ``(cell, heading)``. The candidates are the neighbouring cells and staying, as
     above, ranked by a turn-aware distance: a cell costs the quarter turns to face it,
     the move, and its distance to the goal; staying costs a step more than the best
-    cell (nothing on the goal). The recursion is PIBT's own (:meth:`_pibt`): a robot in
+    cell (nothing on the goal). The recursion is PIBT's own (``_pibt``): a robot in
     the way inherits the priority and must move, or the planner backtracks. A robot
     whose planned cell is ahead drives forward; one whose planned cell is beside or
     behind it turns towards it (on the shorter side) and keeps that cell as its
@@ -232,6 +232,12 @@ class PIBT:
         step = np.array(plan, dtype=np.int64)[moving] - here[moving] + cols
         actions[moving] = np.array(self._floor.action_of, dtype=np.int64)[step]
         return actions
+
+    def forget_commitments(self, robots: np.ndarray) -> None:
+        """Turning robots: drop the cells ``robots`` were turning towards, for a plan that
+        something after PIBT changed (a repair: :mod:`warehouse_phys.planners.repair`)."""
+        if self.turning and len(self._commitments.cell):
+            self._commitments.cell[robots] = NIL
 
     def _request(
         self,

@@ -1,0 +1,42 @@
+"""python -m warehouse_phys.startkit: install into a kit, refusals in one line with exit
+status 2 (its runs are tested where the kit is: tests/lorr/test_startkit_runs.py)."""
+
+import subprocess
+import sys
+
+from tests.conftest import ROOT
+from warehouse_phys.apps import startkit
+
+
+def test_install_writes_the_three_components(tmp_path, capsys):
+    assert startkit.main(["install", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("wrote ") == 3
+    assert "--plannerPython true" in printed
+    assert (tmp_path / "python" / "user_executor" / "pyExecutor.py").is_file()
+
+
+def test_bad_command_lines_and_inputs_are_one_line_with_status_2(tmp_path, capsys):
+    instance = tmp_path / "missing.json"
+    cases = [
+        (["install", str(tmp_path / "nowhere")], "not a folder"),
+        (["run", str(instance), "--kit", str(tmp_path), "--ticks", "5", "--out", str(tmp_path)],
+         "missing.json"),
+        (["run", str(instance), "--ticks", "0", "--kit", "x", "--out", "y"],
+         "expected a positive number of ticks"),
+        (["build", "--kit", str(tmp_path)], "not a start kit"),
+        (["fly"], "invalid choice: 'fly'"),
+    ]  # fmt: skip
+    for argv, message in cases:
+        assert startkit.main(argv) == 2, argv
+        error = capsys.readouterr().err
+        assert message in error, error
+        assert error.count("\n") == 1, error
+
+
+def test_python_dash_m_runs_the_command():
+    done = subprocess.run([sys.executable, "-m", "warehouse_phys.startkit", "--help"], cwd=ROOT,
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode == 0
+    assert "install" in done.stdout
+    assert "run" in done.stdout

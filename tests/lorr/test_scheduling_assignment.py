@@ -1,0 +1,116 @@
+"""The scheduler on true distances: a valid answer on any floor, every free robot paired
+while tasks are left, the least total cost where a greedy pairing pays more, and distances
+round the shelves rather than through them."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from warehouse_phys.lorr.errands import ScheduledTasks
+from warehouse_phys.lorr.instances import LorrInstance
+from warehouse_phys.lorr.scheduling import least_makespan, nearest_free_robot, schedule_checked
+from warehouse_phys.lorr.scheduling_assignment import (
+    SCHEDULER_NAMES,
+    AssignmentScheduler,
+    scheduler_for,
+)
+from warehouse_phys.planners.distances import DistanceMaps
+from warehouse_phys.world.grid import WarehouseGrid
+
+
+def random_floor(seed, rows=8, cols=9, density=0.2):
+    rng = np.random.default_rng(seed)
+    layout = ["".join("#" if rng.random() < density else "." for _ in range(cols))
+              for _ in range(rows)]  # fmt: skip
+    grid = WarehouseGrid.from_layout(layout)
+    free = np.flatnonzero(np.asarray(grid.free_mask).reshape(-1))
+    return grid, free, rng
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**16), robots=st.integers(0, 12), tasks=st.integers(0, 15),
+       weight=st.floats(0, 3), candidates=st.integers(1, 6))  # fmt: skip
+def test_every_free_robot_gets_a_task_of_its_own_while_tasks_are_left(
+    seed, robots, tasks, weight, candidates
+):
+    grid, free, rng = random_floor(seed)
+    robot_cells = rng.choice(free, robots)
+    task_cells = rng.choice(free, tasks)
+    lengths = rng.integers(0, 20, tasks)
+    scheduler = AssignmentScheduler(grid, length_weight=weight, candidates=candidates)
+    choice = schedule_checked(scheduler, robot_cells, task_cells, grid.cols, lengths)
+    assert (choice >= 0).sum() == min(robots, tasks)
+    assert choice.tolist() == scheduler(robot_cells, task_cells, grid.cols,
+                                        task_lengths=lengths).tolist()  # fmt: skip
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**16), robots=st.integers(1, 8), tasks=st.integers(1, 8),
+       weight=st.floats(0, 2))  # fmt: skip
+def test_the_pairs_cost_no_more_than_a_greedy_pairing_on_the_same_distances(
+    seed, robots, tasks, weight
+):
+    """With every task a candidate of every robot, the matching's total (true distance
+    plus weighted length) is at most that of the greedy cheapest-pair-first pairing."""
+    grid, free, rng = random_floor(seed, density=0.1)
+    distances = DistanceMaps(grid)
+    robot_cells = rng.choice(free, robots)
+    task_cells = rng.choice(free, tasks)
+    lengths = rng.integers(0, 10, tasks)
+    way = distances.lookup(np.repeat(robot_cells, tasks), np.tile(task_cells, robots))
+    cost = way.reshape(robots, tasks) + weight * lengths[None, :]
+    if (way >= 65535).any():
+        return  # a walled-off cell: both may leave a robot to the nearest fallback
+    choice = AssignmentScheduler(grid, length_weight=weight, candidates=tasks,
+                                 distances=distances)(robot_cells, task_cells, grid.cols,
+                                                      task_lengths=lengths)  # fmt: skip
+    greedy = np.full(robots, -1)
+    taken = np.zeros(tasks, dtype=bool)
+    for flat in np.argsort(cost, axis=None, kind="stable"):
+        r, t = divmod(int(flat), tasks)
+        if greedy[r] < 0 and not taken[t]:
+            greedy[r], taken[t] = t, True
+    mine = sum(cost[r, t] for r, t in enumerate(choice) if t >= 0)
+    theirs = sum(cost[r, t] for r, t in enumerate(greedy) if t >= 0)
+    assert mine <= theirs + 1e-9
+
+
+def test_distances_go_round_the_shelves():
+    """A robot beside a wall: the task just across it is 2 Manhattan moves away but 12
+    round the wall; the one 5 moves down its side of the wall is nearer on the floor.
+    Manhattan schedulers take the one across the wall; this one the other."""
+    layout = ["...#......", "...#......", "...#......", "...#......", "...#......",
+              "..........", "..........", "...#......"]  # fmt: skip
+    grid = WarehouseGrid.from_layout(layout)
+    cols = grid.cols
+    robot = np.array([0 * cols + 2])
+    tasks = np.array([0 * cols + 4, 5 * cols + 2])
+    assert nearest_free_robot(robot, tasks, cols).tolist() == [0]
+    assert least_makespan(robot, tasks, cols).tolist() == [0]
+    assert AssignmentScheduler(grid)(robot, tasks, cols).tolist() == [1]
+
+
+def test_the_errand_list_hands_tasks_out_through_it():
+    grid = WarehouseGrid(5, 6)
+    tasks = [[7, 20], [13, 2], [25, 4], [9, 10], [28, 0], [1, 29]]
+    problem = LorrInstance(name="t", grid=grid, starts=[0, 5, 24], task_offsets=np.arange(7) * 2,
+                           task_stops=np.ravel(tasks), num_tasks_reveal=2.0,
+                           assignment="scheduler", version="2024 LoRR")  # fmt: skip
+    errands = ScheduledTasks(problem, scheduler=AssignmentScheduler(grid))
+    errands.reset(np.array([0, 5, 24]))
+    assert sorted(errands.tasks.tolist()) == sorted(set(errands.tasks.tolist()))
+    assert (errands.tasks >= 0).all()
+
+
+def test_schedulers_by_name_and_bad_settings():
+    grid = WarehouseGrid(4, 4)
+    assert "assignment" in SCHEDULER_NAMES
+    assert scheduler_for("nearest", grid) is nearest_free_robot
+    assert isinstance(scheduler_for("assignment", grid), AssignmentScheduler)
+    assert scheduler_for("assignment=1.5", grid).length_weight == 1.5
+    for bad in ("fastest", "assignment=-1", "assignment=x"):
+        with pytest.raises(ValueError, match=r"assignment|unknown"):
+            scheduler_for(bad, grid)
+    with pytest.raises(ValueError, match="length_weight"):
+        AssignmentScheduler(grid, candidates=0)

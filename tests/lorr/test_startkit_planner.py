@@ -1,0 +1,92 @@
+"""The entry's planner: goals as the kit will count them, windows of the steps a round
+holds, no rotation ever, the same windows for the same seed."""
+
+import numpy as np
+import pytest
+
+from tests.lorr.tiny_kit_instance import tiny_instance
+from warehouse_phys.execution.plan_checks import NO_ROBOT
+from warehouse_phys.execution.windows import rotation_heads
+from warehouse_phys.lorr.startkit.executor import window_steps
+from warehouse_phys.lorr.startkit.planner import EntryPlanner, goals_after_queue, with_held
+from warehouse_phys.world.headings import HEADING_MOVES, turned
+from warehouse_phys.world.traffic import neighbour_table
+
+
+def test_an_errand_passed_on_the_queue_is_done_by_the_time_the_plan_starts():
+    queue = np.array([[5, 6, 7, 7], [5, 6, 7, 7], [9, 9, 9, 9], [5, 5, 5, 5]])
+    stops = np.array([[6, 2], [7, 6], [-1, -1], [5, 5]])
+    # Robot 0 passes 6: its next is 2; robot 1 passes 7 before 6 would count: still 7 then
+    # 6 is not after it; robot 2 has no task; robot 3 stands on 5 for two ticks: both done.
+    assert goals_after_queue(queue, stops).tolist() == [2, 6, -1, -1]
+    assert goals_after_queue(queue, np.zeros((4, 0), int)).tolist() == [-1] * 4
+
+
+def test_a_held_tasks_errand_follows_the_last_of_the_current_task():
+    stops = np.array([[3, 4, -1], [-1, -1, -1], [5, -1, -1]])
+    held = np.array([9, 8, -1])
+    assert with_held(stops, held).tolist() == [[3, 4, 9, -1], [8, -1, -1, -1], [5, -1, -1, -1]]
+
+
+def test_a_window_holds_the_moves_of_a_round():
+    # Rounds of 10 ticks, moves of 3: 4 first (staged at once), then 3, 3, 4, ...
+    steps = [window_steps(None, 10, 3)] + [window_steps(t, 10, 3) for t in range(0, 90, 10)]
+    assert steps == [4, 3, 3, 4, 3, 3, 4, 3, 3, 4]
+    total = sum(steps)  # every robot on time has moves until the next plan, and no more
+    assert total == -(-(80 + 2 * 10) // 3)  # the plan of tick 80 lasts until tick 100
+    assert window_steps(0, 10, 20) in (0, 1)
+
+
+def test_windows_never_rotate_and_repeat_for_a_seed():
+    instance = tiny_instance()
+    grid = instance.grid
+    ahead = neighbour_table(grid)[:, HEADING_MOVES]
+    occupant = np.full(grid.rows * grid.cols, NO_ROBOT)
+    rng = np.random.default_rng(0)
+    goals = rng.choice(np.flatnonzero(grid.reachable_mask.reshape(-1)), 8)
+
+    def windows(seed):
+        planner = EntryPlanner(grid, steps=4, seed=seed)
+        here, facing, out = instance.starts.copy(), np.zeros(8, np.int64), []
+        for _ in range(20):
+            actions = planner.plan(here, facing, goals)
+            for step in actions.T:
+                wanted = np.where(step == 0, ahead[here, facing], here)
+                assert len(rotation_heads(here, wanted, occupant)) == 0
+                assert np.unique(wanted).size == 8
+                here, facing = wanted, turned(facing, step)
+            out.append(actions)
+        return np.concatenate(out, axis=1)
+
+    first = windows(0)
+    assert (first == windows(0)).all()
+    assert (first == 0).any()  # robots drive
+
+
+def test_an_unknown_planner_is_refused():
+    with pytest.raises(ValueError, match="unknown planner 'lacam'"):
+        EntryPlanner(tiny_instance().grid, steps=2, planner="lacam")
+
+
+def test_a_robot_stuck_on_one_cell_takes_a_detour_for_a_while():
+    from warehouse_phys.lorr.startkit.planner import DETOUR_PLANS, DETOUR_RADIUS, STUCK_PLANS
+
+    instance = tiny_instance()
+    grid = instance.grid
+    planner = EntryPlanner(grid, steps=1)
+    cells, goals = instance.starts.copy(), instance.starts.copy()
+    goals[0] = instance.starts[1]  # robot 0 wants robot 1's cell, every plan from the same cells
+    for _ in range(STUCK_PLANS - 1):
+        planner.plan(cells, np.zeros(8, np.int64), goals)
+        assert (planner.detours == -1).all()
+    planner.plan(cells, np.zeros(8, np.int64), goals)
+    detour = int(planner.detours[0])
+    assert detour >= 0
+    assert (planner.detours[1:] == -1).all()
+    row, col = divmod(detour, grid.cols)
+    here_row, here_col = divmod(int(cells[0]), grid.cols)
+    assert max(abs(row - here_row), abs(col - here_col)) <= DETOUR_RADIUS
+    assert grid.reachable_mask[row, col]
+    for _ in range(DETOUR_PLANS - 1):
+        planner.plan(cells, np.zeros(8, np.int64), goals)
+    assert planner.detours[0] == -1  # back to its errand

@@ -1,0 +1,55 @@
+"""Ctrl-C while a command is still importing: one line, no traceback, exit status 130 (or
+death by SIGINT, which a shell reports as 130); a program importing the package gets its
+KeyboardInterrupt back."""
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from tests.conftest import ROOT
+from warehouse_phys._starting import command_interrupts, started_command
+
+#: After Python's own start (about 0.1 s, beyond the package's reach), within the imports.
+DELAYS = [0.4, 0.8]
+
+
+@pytest.mark.parametrize("delay", DELAYS)
+@pytest.mark.parametrize("module", ["warehouse_phys.simulate", "warehouse_phys.train"])
+def test_ctrl_c_while_a_command_imports_prints_one_line(module, delay):
+    process = subprocess.Popen(
+        [sys.executable, "-m", module, "--robots", "0"], cwd=ROOT, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
+    time.sleep(delay)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert "Traceback" not in err, err
+    prog = f"python -m {module}"
+    if process.returncode == 2:  # the imports were over: the argument was refused
+        pytest.skip("the command had started before the interrupt")
+    assert process.returncode in (130, -signal.SIGINT), err
+    assert err.strip().splitlines()[-1] in (
+        f"{prog}: interrupted while starting; nothing was written",
+        f"{prog}: interrupted; nothing was written",
+    )
+
+
+def test_a_program_that_imports_the_package_gets_its_interrupt_back(monkeypatch):
+    monkeypatch.setattr(sys, "orig_argv", ["python", "-m", "warehouse_phys.simulate"])
+    monkeypatch.setattr(sys, "argv", ["-m"])  # as while -m locates its module
+    with pytest.raises(SystemExit) as stopped, command_interrupts():
+        raise KeyboardInterrupt
+    assert stopped.value.code == 130
+    monkeypatch.setattr(sys, "argv", ["script.py"])  # a script imports the package
+    with pytest.raises(KeyboardInterrupt), command_interrupts():
+        raise KeyboardInterrupt
+    monkeypatch.setattr(sys, "orig_argv", ["python", "-m", "pytest"])
+    assert started_command() is None
+    with pytest.raises(KeyboardInterrupt), command_interrupts(True):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(sys, "orig_argv", ["python", "-m", "warehouse_phys.apps.simulate"])
+    assert started_command() == "python -m warehouse_phys.simulate"

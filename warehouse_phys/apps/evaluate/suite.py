@@ -1,0 +1,145 @@
+"""An evaluation suite: planners x instances x seeds, each run one job, each finished run a
+file of its own.
+
+A :class:`Job` is one planner on one LoRR instance with one seed; :func:`run_job` plays
+it in the calling process (a Ray worker, in the command) and returns its row: what it
+finished (errands in 2023, tasks in 2024 and later, as the competition counts), the rate
+over each third of the run, the fraction of the best known (the 2026 score's unit: tasks
+a step over the best solution's tasks a step), refused moves, CPU and wall time a step
+and peak memory. :func:`finished_rows` reads the rows a folder already holds, so that a
+suite killed half way resumes where it stopped: a row is written whole
+(:func:`write_row`, atomic) or not at all.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import statistics
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from warehouse_phys.files.atomic import atomic_write_text
+
+#: The folder of a suite's finished runs, one JSON file each.
+RUNS_DIR = "runs"
+
+
+@dataclass(frozen=True)
+class Job:
+    """One run of a suite: ``planner`` (a name of
+    :data:`~warehouse_phys.rl.fleet_planners.PLANNERS`) on ``instance`` (a LoRR JSON file)
+    for ``steps`` steps with ``seed``; ``moves`` the robot model, ``scheduler`` a 2024
+    instance's built-in scheduler (None: the fleet's default), ``guidance`` fields of the
+    planner's guidance, ``best`` the instance's best known ``[count, steps]`` if any."""
+
+    planner: str
+    instance: str
+    seed: int
+    steps: int
+    moves: str = "rotate"
+    scheduler: str | None = None
+    guidance: dict[str, Any] = field(default_factory=dict)
+    best: tuple[int, int] | None = None
+
+    @property
+    def name(self) -> str:
+        """A file name that differs for every different job: the instance, planner, seed
+        and steps, and a digest of the rest."""
+        settings = json.dumps([self.moves, self.scheduler, self.guidance, self.instance],
+                              sort_keys=True)  # fmt: skip
+        digest = hashlib.sha256(settings.encode()).hexdigest()[:8]
+        return f"{Path(self.instance).stem}-{self.planner}-s{self.seed}-{self.steps}-{digest}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def run_job(job: dict[str, Any]) -> dict[str, Any]:
+    """Play one job (:meth:`Job.to_dict`) in this process; its row (the module's docstring).
+    Imports its floors here, so that a Ray worker pays for them only when it runs one."""
+    import gc
+    import resource
+    import time
+
+    from warehouse_phys.envs import lorr
+    from warehouse_phys.lorr.instances import SCHEDULED, read_instance
+    from warehouse_phys.lorr.scheduling import scheduler_named
+    from warehouse_phys.rl.fleet_planners import planner_policy
+
+    spec = Job(**{**job, "best": tuple(job["best"]) if job.get("best") else None})
+    instance = read_instance(spec.instance)
+    scheduled = instance.assignment == SCHEDULED
+    options = {"scheduler": scheduler_named(spec.scheduler)} if spec.scheduler and scheduled else {}
+    env = lorr.fleet(instance, moves=spec.moves, max_cycles=spec.steps, **options)
+    policy = planner_policy(spec.planner, seed=spec.seed, **spec.guidance)
+    gc.freeze()  # the floor's objects leave Python's full collections, as simulate does
+    observations, infos = env.reset(seed=spec.seed)
+    cpu, wall, done, refused = [], [], [], 0
+    for _ in range(spec.steps):
+        began_cpu, began_wall = time.process_time(), time.perf_counter()
+        actions = policy(env, observations, infos)
+        observations, _, _, _, infos = env.step(actions)
+        cpu.append(time.process_time() - began_cpu)
+        wall.append(time.perf_counter() - began_wall)
+        refused += sum(info["refused"] for info in infos.values())
+        done.append(env.errands.tasks_done if scheduled else env.errands.errands_done)
+    peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return job_row(spec, instance.name, env.num_robots, done, cpu, wall, refused, peak_mib)
+
+
+def job_row(
+    spec: Job,
+    name: str,
+    robots: int,
+    done: list[int],
+    cpu: list[float],
+    wall: list[float],
+    refused: int,
+    peak_mib: float,
+) -> dict[str, Any]:
+    """The row of a finished run: ``done`` is what counts, finished by each step's end."""
+    steps = len(done)
+    third = steps // 3
+    thirds = [done[third - 1] if third else 0, done[2 * third - 1] if third else 0, done[-1]]
+    rates = [thirds[0] / max(third, 1), (thirds[1] - thirds[0]) / max(third, 1),
+             (thirds[2] - thirds[1]) / max(steps - 2 * third, 1)]  # fmt: skip
+    per_step = done[-1] / steps
+    best = None if spec.best is None else spec.best[0] / spec.best[1]
+    later_cpu, later_wall = cpu[1:] or cpu, wall[1:] or wall
+    return {
+        "name": spec.name, "instance": name, "planner": spec.planner, "seed": spec.seed,
+        "moves": spec.moves, "scheduler": spec.scheduler, "guidance": spec.guidance,
+        "robots": robots, "steps": steps, "finished": done[-1], "per_step": per_step,
+        "first_third": rates[0], "middle_third": rates[1], "last_third": rates[2],
+        "last_over_middle": rates[2] / rates[1] if rates[1] else None,
+        "best_known_per_step": best, "fraction_of_best": per_step / best if best else None,
+        "refused": refused, "first_step_cpu_s": cpu[0], "first_step_wall_s": wall[0],
+        "median_step_cpu_s": statistics.median(later_cpu), "max_step_cpu_s": max(later_cpu),
+        "median_step_wall_s": statistics.median(later_wall), "max_step_wall_s": max(later_wall),
+        "cpu_per_step_s": sum(cpu) / steps, "peak_mib": peak_mib,
+    }  # fmt: skip
+
+
+def write_row(folder: Path, row: dict[str, Any]) -> Path:
+    """Write a finished run's row into ``folder``'s :data:`RUNS_DIR`, whole or not at all."""
+    path = Path(folder) / RUNS_DIR / f"{row['name']}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, json.dumps(row, indent=1) + "\n")
+    return path
+
+
+def finished_rows(folder: Path, jobs: list[Job]) -> dict[str, dict[str, Any]]:
+    """The rows of ``jobs`` that ``folder`` already holds (a file that does not read as
+    its job's row is not finished), by job name."""
+    rows = {}
+    for job in jobs:
+        path = Path(folder) / RUNS_DIR / f"{job.name}.json"
+        try:
+            row = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if isinstance(row, dict) and row.get("name") == job.name and row.get("steps") == job.steps:
+            rows[job.name] = row
+    return rows

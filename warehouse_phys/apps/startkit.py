@@ -1,0 +1,165 @@
+"""``python -m warehouse_phys.startkit``: the package as a League of Robot Runners start-kit entry.
+
+::
+
+    python -m warehouse_phys.startkit install ../start-kit
+    python -m warehouse_phys.startkit build --kit ../shared/lorr/start-kit-3.1.0
+    python -m warehouse_phys.startkit run ../shared/lorr/2026-examples-maze/maze-example_40.json \\
+        --kit ../shared/lorr/start-kit-3.1.0 --ticks 600 --out runs/startkit-maze
+
+``install KIT_DIR`` writes the kit's three Python components
+(``python/user_planner/pyMAPFPlanner.py``, ``python/user_scheduler/pyTaskScheduler.py``,
+``python/user_executor/pyExecutor.py``) into a start-kit checkout; they load this package
+(:mod:`warehouse_phys.lorr.startkit.install`). Then the kit's own ``./build/lifelong -i
+INSTANCE.json --plannerPython true --schedulerPython true --executorPython true`` runs the
+entry. A component there that this package did not write is kept unless ``--force``.
+
+``build --kit KIT_DIR`` builds the kit for this interpreter into its cache folder (once;
+it prints the folder), as ``run`` does when it must.
+
+``run INSTANCE.json --kit KIT_DIR --ticks N --out DIR`` builds the kit if it is not built
+yet (into a cache folder outside any checkout, once per kit and interpreter:
+:mod:`warehouse_phys.lorr.startkit.build`), then runs, in one go, on the same instance:
+the kit with the entry (``DIR/ours.json``, its log ``DIR/ours.log``), the kit's default
+entry (``DIR/default.json``) and ``python -m warehouse_phys.simulate`` by the kit's rules
+with the delays of the first (``DIR/simulate/``), and writes ``DIR/summary.json``. It
+prints one table: tasks finished, the motions the kit's action model refused, planner and
+schedule errors, the checks that found the planner late and the ticks every robot waited
+for a late executor, wall and CPU time (each run's own process). ``--only`` runs one of
+the three. Exit status: 0; 2 for a bad command line or instance; 1 when the kit cannot
+be built or run (one line saying what is missing, or where its log is).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int
+from warehouse_phys.files.atomic import atomic_write_text
+from warehouse_phys.lorr.instances import read_instance
+from warehouse_phys.lorr.startkit.build import KitBuildError, NotAKitError, build_kit
+from warehouse_phys.lorr.startkit.install import InstallError, install
+from warehouse_phys.lorr.startkit.runs import RUNS, comparison_table, run_kit, run_simulate
+
+PROG = "python -m warehouse_phys.startkit"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = ArgumentParser(prog=PROG, description="The package as a League of Robot Runners "
+                            "start-kit entry: install it into a kit, or run it beside the kit's "
+                            "default entry and the package's own simulation.")  # fmt: skip
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=ArgumentParser)
+    put = commands.add_parser("install", help="write the kit's three python/user_*/ files")
+    put.add_argument("kit", type=Path, metavar="KIT_DIR", help="a start-kit checkout")
+    put.add_argument("--force", action="store_true",
+                     help="replace components that this package did not write")  # fmt: skip
+    make = commands.add_parser("build", help="build the kit into its cache folder (once)")
+    make.add_argument("--kit", type=Path, required=True, metavar="KIT_DIR",
+                      help="the start kit's source (only read)")  # fmt: skip
+    make.add_argument("--jobs", type=bounded_int(1, "a positive number of jobs"), default=2,
+                      help="make's jobs (default 2)")  # fmt: skip
+    run = commands.add_parser("run", help="run the entry, the kit's default entry and simulate")
+    run.add_argument("instance", type=Path, metavar="INSTANCE.json")
+    run.add_argument(
+        "--kit",
+        type=Path,
+        required=True,
+        metavar="KIT_DIR",
+        help="the start kit's source (only read; built into a cache folder)",
+    )
+    run.add_argument("--ticks", type=bounded_int(1, "a positive number of ticks"), required=True)
+    run.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
+    run.add_argument("--only", choices=RUNS, help="run only this one")
+    run.add_argument("--jobs", type=bounded_int(1, "a positive number of jobs"), default=2,
+                     help="make's jobs when the kit is built (default 2)")  # fmt: skip
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status (see the module)."""
+    try:
+        args = build_parser().parse_args(argv)
+        if args.command == "install":
+            return _install(args)
+        if args.command == "build":
+            built = build_kit(args.kit, jobs=args.jobs, quiet=False)
+            print(f"the start kit is built: {built.lifelong}")
+            return 0
+        return _run(args)
+    except (UsageError, NotAKitError) as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return 2
+    except (KitBuildError, OSError) as error:
+        print(f"{PROG}: error: {str(error).splitlines()[0]}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{PROG}: stopped (Ctrl-C)", file=sys.stderr)
+        return 130
+
+
+def _install(args: argparse.Namespace) -> int:
+    try:
+        written = install(args.kit, force=args.force)
+    except InstallError as error:
+        raise UsageError(str(error)) from None
+    for path in written:
+        print(f"wrote {path}")
+    flags = "--plannerPython true --schedulerPython true --executorPython true"
+    print(f"build the kit, then run its ./build/lifelong with {flags} from {args.kit}")
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    try:
+        instance = read_instance(args.instance)
+    except (ValueError, TypeError, OSError) as error:
+        raise UsageError(str(error).splitlines()[0]) from None
+    if not args.kit.is_dir() and args.only != "simulate":
+        raise UsageError(f"--kit {args.kit}: not a folder (give the start kit's source)")
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    wanted = [args.only] if args.only else list(RUNS)
+    load_before = os.getloadavg()
+    results, build = [], None
+    if {"ours", "default"} & set(wanted):
+        build = build_kit(args.kit, jobs=args.jobs, quiet=False)
+    size = 1.0 if instance.agent_size is None else instance.agent_size
+    for name in ("ours", "default"):
+        if name in wanted:
+            print(f"running the kit with {'the entry' if name == 'ours' else 'its default entry'}"
+                  f" ({args.ticks:,} ticks)...", file=sys.stderr, flush=True)  # fmt: skip
+            results.append(run_kit(build, args.instance, out / f"{name}.json", args.ticks,
+                                   entry=name, agent_size=size))  # fmt: skip
+    if "simulate" in wanted:
+        source = next((out / f"{n}.json" for n in ("ours", "default")
+                       if (out / f"{n}.json").is_file()), None)  # fmt: skip
+        print("running simulate by the kit's rules...", file=sys.stderr, flush=True)
+        results.append(run_simulate(args.instance, out / "simulate", args.ticks,
+                                    delays_from=source))  # fmt: skip
+    summary = {
+        "instance": str(args.instance), "robots": instance.team_size, "ticks": args.ticks,
+        "kit": str(args.kit), "build": None if build is None else str(build.folder),
+        "load_average": {"before": list(load_before), "after": list(os.getloadavg())},
+        "cpus": os.cpu_count(), "runs": [result.to_json() for result in results],
+    }  # fmt: skip
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    print(
+        f"{instance.name}, {instance.team_size:,} robots, {args.ticks:,} ticks "
+        f"(load average {load_before[0]:.1f} before, {os.getloadavg()[0]:.1f} after):"
+    )
+    print(comparison_table(results))
+    for result in results:
+        if result.note:
+            print(f"{result.name}: {result.note}")
+    names = sorted(path.name for path in out.iterdir() if not path.name.startswith("."))
+    print(f"wrote {out}/: {', '.join(names)}")
+    failed = [r for r in results if r.returncode]
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

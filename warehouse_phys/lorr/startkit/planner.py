@@ -1,0 +1,214 @@
+"""The entry's planner: a window of lock-step steps for turning robots, planned from where
+the start kit predicts the robots will stand, by the package's planner.
+
+The start kit asks its planner, every ``planCommTimeLimit``, for actions that start where
+each robot stands once its staged actions are done (its *predicted state*), and runs them
+after those. :class:`EntryPlanner` plans ``steps`` joint steps from there with
+:class:`~warehouse_phys.planners.guidance.GuidedPIBT` (``"guided"``, the package's best
+planner for turning robots: PIBT over cells and headings following traffic-priced guide
+paths, with one-way lanes; the ``guided`` of :mod:`warehouse_phys.rl.fleet_planners`) or
+plain :class:`~warehouse_phys.planners.pibt.PIBT` (``"pibt"``), each step from the last,
+and holds every rotation (the kit's square robots cannot rotate:
+:func:`~warehouse_phys.execution.windows.without_rotations`). Actions are the kit's
+numbers, which are :class:`~warehouse_phys.world.headings.TurnAction`'s: forward 0,
+clockwise 1, counter-clockwise 2, wait 3.
+
+:func:`goals_after_queue` is the goal each robot should plan for: the kit counts an errand
+on the tick a robot stands on it, so a robot whose staged actions pass its next errand has
+done it by the time the plan starts, and plans for the one after (or for none, its task
+done). Like :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium,
+pymunk nor pygame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from warehouse_phys.execution.plan_checks import NO_ROBOT, rows_cols
+from warehouse_phys.execution.ticks import check_whole
+from warehouse_phys.execution.windows import REPLANS, rotation_heads, without_rotations
+from warehouse_phys.planners.guidance import GuidedPIBT
+from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.headings import HEADING_MOVES, TurnAction, turned
+from warehouse_phys.world.traffic import neighbour_table
+
+#: The planners an entry may use, by name (the best first).
+ENTRY_PLANNERS = ("guided", "pibt")
+#: Most steps a window may hold.
+MAX_STEPS = 64
+#: Plans in a row a robot with an errand elsewhere may start on one cell before it is
+#: taken for stuck (about :data:`STUCK_PLANS` rounds of the kit's).
+STUCK_PLANS = 5
+#: Plans a stuck robot heads for a detour, and how far the detour may be [cells].
+DETOUR_PLANS, DETOUR_RADIUS = 2, 4
+
+
+def entry_planner(name: str, grid: WarehouseGrid, seed: int = 0) -> GuidedPIBT | PIBT:
+    """The planner called ``name`` (one of :data:`ENTRY_PLANNERS`) for turning robots on
+    ``grid``, seeded.
+
+    Raises:
+        ValueError: for another name.
+    """
+    if name == "guided":
+        return GuidedPIBT(grid, seed=seed, moves="rotate", config=GuidanceConfig())
+    if name == "pibt":
+        return PIBT(grid, seed=seed, moves="rotate")
+    raise ValueError(f"unknown planner {name!r}; known: {', '.join(ENTRY_PLANNERS)}")
+
+
+class EntryPlanner:
+    """Windows of ``steps`` joint steps for a fleet of turning robots (see the module).
+
+    Args:
+        grid: The floor.
+        steps: Steps a window holds (1 to :data:`MAX_STEPS`).
+        planner: One of :data:`ENTRY_PLANNERS`.
+        seed: The planner's seed: the same seed and inputs give the same windows (the
+            guided planner's time bound, if any, aside).
+
+    Raises:
+        ValueError, TypeError: naming the argument.
+    """
+
+    def __init__(
+        self, grid: WarehouseGrid, *, steps: int, planner: str = "guided", seed: int = 0
+    ) -> None:
+        self.grid = grid
+        self.steps = check_whole("steps", steps, 1, MAX_STEPS)
+        self.name = planner
+        self.planner = entry_planner(planner, grid, seed)
+        table = neighbour_table(grid)
+        #: ``(cells, 4)`` the cell a forward move along each heading enters.
+        self.ahead = table[:, HEADING_MOVES]
+        self._occupant = np.full(grid.rows * grid.cols, NO_ROBOT, dtype=np.int64)
+        self._rng = np.random.default_rng(seed)
+        self._free = grid.reachable_mask.reshape(-1)
+        self._last = np.zeros(0, dtype=np.int64)
+        self._still = np.zeros(0, dtype=np.int64)
+        self._detour = np.zeros(0, dtype=np.int64)
+        self._left = np.zeros(0, dtype=np.int64)
+
+    def plan(
+        self, cells: np.ndarray, headings: np.ndarray, goals: np.ndarray,
+        steps: int | None = None,
+    ) -> np.ndarray:  # fmt: skip
+        """``(N, steps)`` int64: each robot's actions from ``cells`` (``(N,)`` cell indices)
+        and ``headings`` (``(N,)`` 0..3) towards ``goals`` (``(N,)`` cell indices, -1: no
+        errand, the robot keeps its cell unless pushed), ``steps`` of them (0 to
+        :data:`MAX_STEPS`; default :attr:`steps`). No step rotates robots.
+
+        A robot that starts :data:`STUCK_PLANS` plans in a row on the same cell, an errand
+        elsewhere, is stuck (PIBT for turning robots, which may not rotate here, locks a
+        crowd in a narrow loop now and then: the maze example locked within 2,000 ticks on
+        each of 3 delay seeds without this, never with it): for
+        :data:`DETOUR_PLANS` plans it heads for a free cell drawn within
+        :data:`DETOUR_RADIUS` cells instead, which frees room for the others.
+
+        Raises:
+            ValueError: as the planner refuses its inputs (a fleet of another size than the
+                last call's, headings out of 0..3).
+        """
+        here = np.asarray(cells, dtype=np.int64).copy()
+        facing = np.asarray(headings, dtype=np.int64).copy()
+        goals = self._detoured(here, np.asarray(goals, dtype=np.int64))
+        steps = self.steps if steps is None else check_whole("steps", steps, 0, MAX_STEPS)
+        actions = np.empty((len(here), steps), dtype=np.int64)
+        for s in range(steps):
+            step, kept = self._step(here, facing, goals)
+            actions[:, s] = step
+            facing = turned(facing, step)
+            here = kept
+        return actions
+
+    @property
+    def detours(self) -> np.ndarray:
+        """``(N,)`` the cell each robot heads for instead of its errand, stuck (-1 none)."""
+        return np.where(self._left > 0, self._detour, -1)
+
+    def _detoured(self, here: np.ndarray, goals: np.ndarray) -> np.ndarray:
+        """``goals`` with the stuck robots' detours in (see :meth:`plan`)."""
+        n = len(here)
+        if len(self._last) != n:
+            self._last, self._still = here.copy(), np.zeros(n, dtype=np.int64)
+            self._detour, self._left = np.full(n, -1, dtype=np.int64), np.zeros(n, np.int64)
+        unmoved = (here == self._last) & (goals >= 0) & (goals != here)
+        self._still = np.where(unmoved, self._still + 1, 0)
+        self._last = here.copy()
+        stuck = np.flatnonzero((self._still >= STUCK_PLANS) & (self._left == 0))
+        if stuck.size:
+            self._detour[stuck] = self._near(here[stuck])
+            self._left[stuck] = DETOUR_PLANS
+            self._still[stuck] = 0
+        active = self._left > 0
+        self._left[active] -= 1
+        return np.where(active & (self._detour >= 0), self._detour, goals)
+
+    def _near(self, cells: np.ndarray) -> np.ndarray:
+        """A reachable cell within :data:`DETOUR_RADIUS` of each of ``cells`` (-1 where a
+        few draws find none)."""
+        cols, rows = self.grid.cols, self.grid.rows
+        row, col = np.divmod(cells, cols)
+        found = np.full(len(cells), -1, dtype=np.int64)
+        for _ in range(8):
+            d_row, d_col = self._rng.integers(-DETOUR_RADIUS, DETOUR_RADIUS + 1, (2, len(cells)))
+            r, c = row + d_row, col + d_col
+            inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+            cell = np.where(inside, r * cols + c, 0)
+            ok = inside & self._free[cell] & (cell != cells) & (found < 0)
+            found[ok] = cell[ok]
+        return found
+
+    def _step(
+        self, here: np.ndarray, facing: np.ndarray, goals: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """One joint step without rotations: its actions and the cells they lead to. A
+        step with rotations is planned again with one robot of each (the lowest-numbered)
+        aiming at its own cell, so that it stays and the others go round it (up to
+        :data:`~warehouse_phys.execution.windows.REPLANS` times); rotations left are held
+        (:func:`~warehouse_phys.execution.windows.without_rotations`)."""
+        cols = self.grid.cols
+        aims = np.where(goals >= 0, goals, here)
+        for attempt in range(REPLANS + 1):
+            step = self.planner.plan(rows_cols(here, cols), rows_cols(aims, cols),
+                                     headings=facing)  # fmt: skip
+            forward = step == TurnAction.FORWARD
+            wanted = np.where(forward, self.ahead[here, facing], here)
+            heads = rotation_heads(here, wanted, self._occupant)
+            if not len(heads) or attempt == REPLANS:
+                break
+            aims[heads] = here[heads]
+        kept = without_rotations(here, wanted, self._occupant)
+        return np.where(forward & (kept != wanted), TurnAction.WAIT, step), kept
+
+
+def goals_after_queue(queue_cells: np.ndarray, stops: np.ndarray) -> np.ndarray:
+    """``(N,)`` each robot's next errand once its staged actions are done: the first of its
+    task's remaining ``stops`` (``(N, M)`` cell indices in order, padded with -1; all -1
+    for a robot without a task) that the robot does not stand on, in turn, along
+    ``queue_cells`` (``(N, W + 1)``: where it stands now, then after each staged action);
+    -1 for a robot whose task is done by then."""
+    stops = np.asarray(stops, dtype=np.int64)
+    queue_cells = np.asarray(queue_cells, dtype=np.int64)
+    n, m = stops.shape
+    if not m:
+        return np.full(n, -1, dtype=np.int64)
+    robots = np.arange(n)
+    done = np.zeros(n, dtype=np.int64)
+    for cells in queue_cells.T:  # one errand a tick at most: one a queued cell
+        nxt = stops[robots, np.minimum(done, m - 1)]
+        done += (done < m) & (nxt >= 0) & (cells == nxt)
+    return np.where(done < m, stops[robots, np.minimum(done, m - 1)], -1)
+
+
+def with_held(stops: np.ndarray, held_stop: np.ndarray) -> np.ndarray:
+    """``stops`` (``(N, M)``, padded with -1) with each robot's ``held_stop`` (``(N,)``: the
+    first errand of the task held for it, -1 none) after its last: ``(N, M + 1)``."""
+    stops = np.asarray(stops, dtype=np.int64)
+    count = (stops >= 0).sum(axis=1)
+    joined = np.concatenate([stops, np.full((len(stops), 1), -1, dtype=np.int64)], axis=1)
+    holding = np.flatnonzero(np.asarray(held_stop) >= 0)
+    joined[holding, count[holding]] = np.asarray(held_stop)[holding]
+    return joined

@@ -1,0 +1,13 @@
+"""``python -m warehouse_phys.startkit``: runs :mod:`warehouse_phys.apps.startkit`.
+
+Imported (not run) this module is that module itself, as :mod:`warehouse_phys.simulate` is.
+"""
+
+import sys
+
+from warehouse_phys.apps import startkit as _startkit
+
+if __name__ == "__main__":
+    sys.exit(_startkit.main())
+else:
+    sys.modules[__name__] = _startkit
