@@ -57,7 +57,7 @@ EXTERNAL_NAMESPACES = (
     "tqdm|ray|stable_baselines3|supersuit|torch|"
     # The standard library.
     "argparse|collections|concurrent|contextlib|dataclasses|datetime|enum|io|json|"
-    "multiprocessing|os|pathlib|signal|subprocess|sys|threading|types|typing|"
+    "math|multiprocessing|os|pathlib|signal|subprocess|sys|threading|time|types|typing|"
     "typing_extensions"
 )
 BUILTINS = (

@@ -97,6 +97,20 @@ def main() -> None:
         shutil.copy(Path(folder) / sweep.SUMMARY_PNG, HERE / "sweep_summary.png")
     print(f"wrote {HERE / 'sweep_summary.png'}")
     fleet_gif()
+    warehouse_floor_png()
+
+
+def warehouse_floor_png() -> None:
+    """10,000 turning robots on the shipped 140 x 500 Kiva floor after 40 steps of PIBT."""
+    from warehouse_phys.apps.simulate.lockstep import simulate
+    from warehouse_phys.rl.fleet_planners import planner_policy
+
+    env = fleet.parallel_env(
+        num_robots=10_000, layout="kiva-140-500", moves="rotate", on_delivery="new_package"
+    )
+    run, frames = simulate(env, planner_policy("pibt"), steps=40, frames=2, cell_px=3)
+    save(frames[-1], "warehouse_floor.png")
+    print(f"wrote {HERE / 'warehouse_floor.png'} ({run.delivered} deliveries in 40 steps)")
 
 
 def fleet_gif() -> None:

@@ -50,7 +50,7 @@ def test_spawned_workers_find_the_environments_by_their_module_ids(run_python):
 
 # ------------------------------------------------- nothing hangs, nothing is left
 def test_an_address_where_nothing_listens_fails_within_seconds(tmp_path, monkeypatch, capsys):
-    # A refused argument: exit status 2, as README's Limits promises for every command line.
+    # A refused argument: exit status 2, as docs/limits.md promises for every command line.
     monkeypatch.chdir(tmp_path)
     started = time.monotonic()
     assert sweep_cli.main(["--seeds", "1", "--address", "127.0.0.1:1"]) == 2

@@ -630,9 +630,9 @@ def test_a_fleet_that_cannot_be_trained_exits_2_and_writes_nothing(tmp_path, cap
     assert not (tmp_path / "out").exists()
 
 
-def test_the_readme_names_the_largest_square_floors_train_accepts(tmp_path, capsys):
-    readme = (Path(__file__).parents[2] / "README.md").read_text()
-    row = next(line for line in readme.splitlines() if line.startswith("| training memory |"))
+def test_the_limits_page_names_the_largest_square_floors_train_accepts(tmp_path, capsys):
+    limits = (Path(__file__).parents[2] / "docs" / "limits.md").read_text()
+    row = next(line for line in limits.splitlines() if line.startswith("| training memory |"))
     sides = [int(side) for side in re.findall(r"(\d+) x \1", row)]
     assert len(sides) == 3, row
     for (robots, observation), side in zip(

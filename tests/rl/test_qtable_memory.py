@@ -34,7 +34,7 @@ pytestmark = pytest.mark.skipif(
 #: A floor whose table (25.9 MB) dwarfs the measuring's noise, and loads in a blink.
 SIDE = 30
 TABLE = table_bytes(SIDE, SIDE)
-SLACK = 2**20  # the README's bound: the table its grid needs, plus 1 MiB
+SLACK = 2**20  # the Limits page's bound (docs/limits.md): the table its grid needs, plus 1 MiB
 
 PEAK_OF_LOADING = textwrap.dedent(
     """
