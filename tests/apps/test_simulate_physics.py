@@ -75,6 +75,7 @@ def test_train_refuses_episodes_beyond_any_run_in_one_line(tmp_path, capsys, mon
     assert err == ("python -m warehouse_phys.train: error: argument --episodes: expected a "
                    "positive number of episodes (at most 9,223,372,036,854,775,807), got an "
                    "integer of 401 digits\n")  # fmt: skip
+    assert not (tmp_path / "runs").exists()  # nothing written
 
 
 @pytest.mark.parametrize(
@@ -95,6 +96,24 @@ def test_an_instance_with_a_field_out_of_range_is_refused_in_one_line(
     assert err.count("\n") == 1
     assert str(path) in err
     assert message in err
+    assert not (tmp_path / "run").exists()  # nothing written
+
+
+def test_a_fleet_beyond_what_the_machine_holds_is_refused_naming_its_memory(
+    tmp_path, capsys, monkeypatch
+):
+    from warehouse_phys.physics import config
+
+    monkeypatch.setattr(config, "machine_memory", lambda: 2**20)  # 1 MiB: 64 robots
+    out = tmp_path / "run"
+    argv = ["--physics", "--layout", "warehouse", "--robots", "80", "--steps", "2", "--quiet"]
+    assert main([*argv, "--out", str(out)]) == 2
+    assert capsys.readouterr().err == (
+        "python -m warehouse_phys.simulate: error: num_robots: 80 robots' bodies need about "
+        "1.2 MiB (16 KiB a robot), more than this machine's 1.0 MiB: the physics world holds "
+        "at most 64\n"
+    )
+    assert not out.exists()
 
 
 def test_a_full_disk_says_which_files_are_complete(tmp_path, capsys, monkeypatch):

@@ -1,6 +1,6 @@
 """The asynchronous fleet: PettingZoo's suites, the physics twin against the grid twin
 tick by tick (no contact, the same cells), holds as safe as delays, LoRR 2026 instances,
-clear refusals."""
+10,000 bodies on two threads, clear refusals (the bodies' cap: this machine's memory)."""
 
 import functools
 import warnings
@@ -270,3 +270,36 @@ def test_pettingzoos_suites_pass_with_the_bodies_in_two_regions():
     quietly(parallel_api_test, async_fleet.parallel_env(**kwargs), num_cycles=60)
     quietly(parallel_seed_test, functools.partial(async_fleet.parallel_env, **kwargs), 30)
     quietly(api_test, async_fleet.env(**kwargs), num_cycles=30)
+
+
+@pytest.mark.parametrize("moves", ["grid", "rotate"])
+def test_ten_thousand_bodies_run_on_ticks_on_two_threads_and_keep_apart(moves):
+    delays = DelayConfig(seed=0, min_delay=1, max_delay=20, event_model="bernoulli",
+                         p_delay=0.005, duration_model="uniform")  # fmt: skip
+    env = async_fleet.parallel_env(grid_rows=150, grid_cols=150, num_robots=10_000,
+                                   physics=True, ticks_per_move=3, delays=delays, moves=moves,
+                                   physics_threads=2, max_cycles=6)  # fmt: skip
+    env.reset_arrays(seed=0)
+    go = np.ones(env.num_robots, dtype=np.int64)
+    while env.agents:
+        step = env.step_arrays(go)
+    record = env.safety
+    assert record.steps == 6 * env.tick_steps
+    assert record.body_contacts == record.wall_contacts == record.split_contacts == 0
+    assert record.closest_approach >= record.bound
+    assert env.execution.measures.delayed > 0  # the delays did hold robots
+    assert (step.infos["closest_approach"] >= record.bound).all()
+
+
+def test_the_physics_twin_takes_as_many_robots_as_the_machines_memory_holds(monkeypatch):
+    from warehouse_phys.physics import config
+
+    monkeypatch.setattr(config, "machine_memory", lambda: 160 * 2**20)  # 160 MiB: 10,240
+    message = (
+        r"^num_robots: 12,000 robots' bodies need about 187\.5 MiB \(16 KiB a robot\), "
+        r"more than this machine's 160\.0 MiB: the physics world holds at most 10,240$"
+    )
+    with pytest.raises(ValueError, match=message):
+        async_fleet.parallel_env(grid_rows=160, grid_cols=160, num_robots=12_000, physics=True)
+    async_fleet.parallel_env(grid_rows=160, grid_cols=160, num_robots=12_000)  # the grid twin
+    async_fleet.parallel_env(grid_rows=4, grid_cols=4, num_robots=2, physics=True)

@@ -50,9 +50,8 @@ def test_the_array_form_runs_the_same_episode_as_the_dicts(kwargs):
     if kwargs.get("physics"):
         assert arrays.safety.summary() == dicts.safety.summary()
         assert dicts.safety.steps > 0
-        assert {"closest_approach", "body_contacts", "wall_contacts"} <= set(
-            next(iter(infos.values())) if infos else {"closest_approach", "body_contacts",
-                                                      "wall_contacts"})  # fmt: skip
+        assert {"closest_approach", "body_contacts", "wall_contacts"} <= set(columns)
+        assert (columns["closest_approach"] >= dicts.safety.bound).all()
 
 
 def test_the_fleet_refuses_reset_options_but_pettingzoos_probe():

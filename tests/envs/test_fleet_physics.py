@@ -21,6 +21,7 @@ from warehouse_phys.envs import fleet
 from warehouse_phys.envs.fleet import setup as fleet_setup
 from warehouse_phys.physics import (
     COLLISION_SLOP,
+    PENETRATION_TOLERANCE,
     SNAP_ERROR_BOUND,
     SUPPORTED_RANGES,
     PhysicsConfig,
@@ -241,6 +242,23 @@ def test_256_robots_on_the_kiva_warehouse_follow_the_planner_as_the_grid_twin_do
     assert phys.deliveries.sum() / steps > 4  # deliveries per step: the grid's throughput
     # The closest the rule lets two default robots come: a corner follow, sqrt(0.5) - 0.6.
     assert closest == pytest.approx(np.sqrt(0.5) - 0.6, abs=0.01)
+
+
+@pytest.mark.parametrize("moves", ["grid", "rotate"])
+def test_ten_thousand_bodies_move_in_lock_step_on_two_threads_and_keep_apart(moves):
+    env = fleet.parallel_env(num_robots=10_000, physics=True, grid_rows=150, grid_cols=150,
+                             starts="random", lifelong=True, moves=moves,
+                             physics_threads=2)  # fmt: skip
+    env.reset_arrays(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(2):  # random actions: crowds, refusals and bumps into the floor's edge
+        step = env.step_arrays(rng.integers(env.action_space("robot_0").n, size=10_000))
+    record = env.safety
+    assert record.steps == 2 * env.world.config.steps_per_move
+    assert record.body_contacts == record.split_contacts == 0
+    assert record.closest_approach >= record.bound
+    assert record.deepest_wall <= PENETRATION_TOLERANCE
+    assert (step.infos["closest_approach"] >= record.bound).all()
 
 
 @pytest.mark.parametrize(("n_robots", "cycles"), [(2, 100), (64, 60), (256, 24)])

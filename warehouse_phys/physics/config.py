@@ -62,13 +62,20 @@ def check_physics_robots(num_robots: int, name: str = "num_robots") -> int:
     naming ``name``, the memory they need and the machine's."""
     most = max_physics_robots()
     if num_robots > most:
-        need = num_robots * PHYSICS_BYTES_PER_ROBOT / 2**30
+        need = _memory_text(num_robots * PHYSICS_BYTES_PER_ROBOT)
         raise ValueError(
-            f"{name}: {num_robots:,} robots' bodies need about {need:,.1f} GiB "
+            f"{name}: {num_robots:,} robots' bodies need about {need} "
             f"({PHYSICS_BYTES_PER_ROBOT // 1024} KiB a robot), more than this machine's "
-            f"{machine_memory() / 2**30:,.1f} GiB: the physics world holds at most {most:,}"
+            f"{_memory_text(machine_memory())}: the physics world holds at most {most:,}"
         )
     return num_robots
+
+
+def _memory_text(n_bytes: int) -> str:
+    """``n_bytes`` in GiB, or in MiB below 1 GiB, to a tenth."""
+    if n_bytes < 2**30:
+        return f"{n_bytes / 2**20:,.1f} MiB"
+    return f"{n_bytes / 2**30:,.1f} GiB"
 
 
 #: The values each setting may take, (lowest, highest), in its unit. Outside them
