@@ -150,9 +150,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"10,000 robots, {label}, {args.ten_thousand_ticks} ticks:\n"
                   f"{comparison_table([result])}")  # fmt: skip
             for call, timing in (result.timings or {}).items():
-                print(f"  {call}: {timing['count']} calls, median {timing['median_ms']:.0f} ms, "
-                      f"slowest {timing['max_ms']:.0f} ms, {timing['over_limit']:.0%} over the "
-                      "limit")  # fmt: skip
+                cpu = timing.get("cpu_median_ms")
+                cpu_text = "" if cpu is None else f" (CPU {cpu:.0f} ms)"
+                print(f"  {call}: {timing['count']} calls, median {timing['median_ms']:.0f} ms"
+                      f"{cpu_text}, slowest {timing['max_ms']:.0f} ms, "
+                      f"{timing['over_limit']:.0%} over the limit")  # fmt: skip
     if args.json is not None:
         args.json.write_text(json.dumps(report, indent=2) + "\n")
     return 0

@@ -5,6 +5,7 @@ follows the staged actions, the kit's floor read from its map."""
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from tests.lorr.tiny_kit_instance import tiny_instance
 from warehouse_phys.lorr.startkit import adapters
@@ -75,3 +76,31 @@ def test_the_kits_map_is_our_floor():
                           cols=grid.cols)  # fmt: skip
     assert (adapters.kit_grid(env).free_mask == grid.free_mask).all()
     assert adapters.setting("WAREHOUSE_PHYS_PLANNER") == "guided"
+
+
+def test_the_executor_takes_its_planners_plan_only_when_it_is_the_kits():
+    plan = np.array([[0, 1, 3], [3, 3, 3], [2, 0, 0]])
+    kits = [list(row) for row in plan.tolist()]  # stand-in for the kit's Plan.actions
+    adapters._PLANNED[:] = [plan]
+    assert adapters.plan_table(kits, 3) is plan  # this interpreter's plan, taken as it is
+    assert not adapters._PLANNED
+    other = [[0], [1, 2], []]  # another plan (the planner's answer never came): read
+    adapters._PLANNED[:] = [plan]
+    assert adapters.plan_table(other, 3).tolist() == [[0, 3], [1, 2], [3, 3]]
+    assert adapters.plan_table(kits, 3).tolist() == plan.tolist()  # none kept: read
+
+
+def test_call_timings_give_wall_and_cpu_medians_and_the_share_over_the_limit(tmp_path):
+    from warehouse_phys.lorr.startkit.runs import call_timings
+
+    path = tmp_path / "ours.timings"
+    path.write_text("plan 0.5 0.2\nschedule 0.6 0.1\nplan 0.3 0.25\nschedule 0.1 0.05\n"
+                    "next_command 0.2 0.01\nprocess_new_plan 0.05\n")  # fmt: skip
+    timings = call_timings(path)
+    assert timings["plan"]["count"] == 2
+    assert timings["plan"]["median_ms"] == pytest.approx(500)
+    assert timings["plan"]["cpu_median_ms"] == pytest.approx(250)
+    assert timings["round"]["over_limit"] == 0.5  # 1.1 s and 0.4 s
+    assert timings["round"]["cpu_median_ms"] == pytest.approx(300)
+    assert timings["next_command"]["over_limit"] == 1.0
+    assert "cpu_median_ms" not in timings["process_new_plan"]  # an older file: wall only

@@ -90,3 +90,39 @@ def test_a_robot_stuck_on_one_cell_takes_a_detour_for_a_while():
     for _ in range(DETOUR_PLANS - 1):
         planner.plan(cells, np.zeros(8, np.int64), goals)
     assert planner.detours[0] == -1  # back to its errand
+
+
+def test_a_time_bound_stops_the_guide_searches_and_the_plan_still_holds():
+    instance = tiny_instance()
+    grid = instance.grid
+    ahead = neighbour_table(grid)[:, HEADING_MOVES]
+    occupant = np.full(grid.rows * grid.cols, NO_ROBOT)
+    goals = instance.starts[::-1].copy()
+    facing = np.zeros(8, np.int64)
+    free = EntryPlanner(grid, steps=3).plan(instance.starts, facing, goals)
+    roomy = EntryPlanner(grid, steps=3).plan(instance.starts, facing, goals, seconds=60.0)
+    assert (roomy == free).all()  # time enough: the unbounded plan
+    bounded = EntryPlanner(grid, steps=3)
+    actions = bounded.plan(instance.starts, facing, goals, seconds=0.0)
+    assert bounded.planner.guidance.timed_out > 0  # no time: robots left unguided
+    here = instance.starts.copy()
+    for step in actions.T:  # ... and every step is still one the robots can make
+        wanted = np.where(step == 0, ahead[here, facing], here)
+        assert len(rotation_heads(here, wanted, occupant)) == 0
+        assert np.unique(wanted).size == 8
+        here, facing = wanted, turned(facing, step)
+
+
+def test_the_collector_is_paused_and_then_as_it_was():
+    import gc
+
+    from warehouse_phys.lorr.startkit.planner import collector_paused
+
+    for enabled in (True, False):
+        (gc.enable if enabled else gc.disable)()
+        try:
+            with collector_paused():
+                assert not gc.isenabled()
+            assert gc.isenabled() == enabled
+        finally:
+            gc.enable()

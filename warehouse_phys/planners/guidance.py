@@ -31,8 +31,9 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   opposite ways), laid in the flow at the first update with ``facing``, so that a guide
   path against a lane pays that contraflow and robots going opposite ways take
   neighbouring corridors instead of meeting in one (every price of the flow sees them: a
-  move into a lane's cell, and a turn on one, cost a little more too). The README has
-  the figures. Lanes can cover the whole floor, open bands included (``floor_lane_paths``,
+  move into a lane's cell, and a turn on one, cost a little more too). The figures are
+  in the documentation's LoRR page (``docs/lorr.md``, "One-way lanes"). Lanes can cover
+  the whole floor, open bands included (``floor_lane_paths``,
   :func:`~warehouse_phys.planners.lanes.floor_lanes`), or be learned from the fleet's
   own traffic (``learned_lane_paths``,
   :class:`~warehouse_phys.planners.guidance_learning.TrafficLanes`); both are phantom
@@ -66,6 +67,7 @@ rules, it imports neither gymnasium, pymunk nor pygame.
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -143,6 +145,8 @@ class TrafficGuidance:
         #: the step's time ran out.
         self.searches = 0
         self.timed_out = 0
+        #: Wall time of the last step's searches [s].
+        self.search_seconds = 0.0
 
     def update(
         self,
@@ -152,9 +156,11 @@ class TrafficGuidance:
         distances: DistanceMaps | None = None,
         held: np.ndarray | None = None,
         facing: np.ndarray | None = None,
+        deadline: float | None = None,
     ) -> np.ndarray:
         """One step's guidance: each ``active`` robot's guide path brought up to date
-        (moved along, rejoined, searched anew within the step's bounds), then the values of
+        (moved along, rejoined, searched anew within the step's bounds and before
+        ``deadline``, a :func:`time.perf_counter` instant, if given), then the values of
         its five candidate cells (its four moves in action order, then its own cell), lower
         better, ``NaN`` where it has no guide path (and every row but the active robots').
         ``held`` cells (robots that never move again) are walls to the guide paths.
@@ -183,7 +189,8 @@ class TrafficGuidance:
         if self._first and self.config.first_time_limit is not None:
             limit = self.config.first_time_limit
         self._first = False
-        deadline = None if limit is None else time.perf_counter() + limit
+        if limit is not None:
+            deadline = min(time.perf_counter() + limit, math.inf if deadline is None else deadline)
         paths = self._paths
         dropped = (paths.goal != goal) | ~active | (self._column[goal] < 0)
         self._drop(np.flatnonzero(dropped & (paths.moves >= 0)))
@@ -252,12 +259,15 @@ class TrafficGuidance:
         budget = self.config.max_searches
         self.searches, self.timed_out = 0, 0
         robots = [*needed, *others]
+        begun = time.perf_counter()
         while self.searches < len(robots):
             if (budget is not None and self.searches >= budget) or (
                 deadline is not None and time.perf_counter() > deadline
             ):
                 self.timed_out = max(0, len(needed) - self.searches)
-                return
+                if deadline is not None and self.timed_out:  # the next step starts there
+                    self._turn = robots[self.searches]
+                break
             size = self.config.search_batch
             if budget is not None:
                 size = min(size, budget - self.searches)
@@ -266,6 +276,7 @@ class TrafficGuidance:
             for i, found in zip(batch, self._search(batch, column), strict=True):
                 status[i] = 0 if found else 1
             self.searches += len(batch)
+        self.search_seconds = time.perf_counter() - begun
 
     def _search(self, robots: list[int], column: np.ndarray) -> list[bool]:
         """The guide paths of ``robots`` from where they stand (map columns ``column``) to
@@ -430,9 +441,12 @@ class GuidedPIBT:
         present: np.ndarray | None = None,
         *,
         headings: np.ndarray | None = None,
+        deadline: float | None = None,
     ) -> np.ndarray:
         """The next joint action, as :meth:`PIBT.plan
-        <warehouse_phys.planners.pibt.PIBT.plan>` (``(N,)`` int64), guided.
+        <warehouse_phys.planners.pibt.PIBT.plan>` (``(N,)`` int64), guided; the guide
+        paths' searches stop at ``deadline`` (a :func:`time.perf_counter` instant; the
+        robots left are PIBT's, and the plan may differ between runs), if given.
 
         Raises:
             ValueError: as :meth:`PIBT.plan <warehouse_phys.planners.pibt.PIBT.plan>`,
@@ -454,7 +468,7 @@ class GuidedPIBT:
             facing = HEADING_MOVES[headings.astype(np.int64)]
         values = self.guidance.update(here, goals[:, 0] * cols + goals[:, 1], movable,
                                       self.pibt.distances, here[present & ~movable],
-                                      facing)  # fmt: skip
+                                      facing, deadline)  # fmt: skip
         if self.operations is not None:
             # A cell beside the guide path costs more than an operation's moves: a robot
             # leaves its path (and needs a new one) only when no operation along it fits.

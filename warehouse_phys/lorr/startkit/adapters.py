@@ -16,8 +16,9 @@ side, ``agentSize`` (``WAREHOUSE_PHYS_AGENT_SIZE``, default 1, the kit's default
 every 2026 example's; a larger value than the instance's is safe, only slower), the
 planner (``WAREHOUSE_PHYS_PLANNER``, ``guided``) and the scheduler
 (``WAREHOUSE_PHYS_SCHEDULER``, ``assignment``). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
-file, each call appends a line ``<call> <wall seconds>`` to it (the kit ends its process
-without Python's exit handlers, so nothing waits for the end).
+file, each call appends a line ``<call> <wall seconds> <CPU seconds of its thread>`` to
+it (the kit ends its process without Python's exit handlers, so nothing waits for the
+end).
 
 The kit's Python bridge writes the scheduler's whole answer once it returns, over the
 robots the kit freed in the meantime (their tasks finished in the ticks that ran while it
@@ -25,6 +26,18 @@ computed), which the kit then counts as schedule errors ("task already finished"
 executor, at its first command of a round, waits (at most 80 % of its time) until the
 scheduler of the same interpreter has answered: the kit writes the answer before it lets
 the executor go on (it holds Python's lock while it copies it).
+
+Time: the kit's rounds are real time (a late plan costs the robots the ticks they wait
+for it, an executor call over its 100 ms a tick of waits for every robot). The planner
+aims to end its round, the scheduler's time included, within :data:`ROUND_SHARE` of the
+kit's ``time_limit``: the guided planner's guide-path searches stop there, and the robots
+left step by PIBT's distances (``seconds`` of
+:meth:`~warehouse_phys.lorr.startkit.planner.EntryPlanner.plan`; without the kit, as
+:mod:`~warehouse_phys.lorr.startkit.system` runs the entry, there is no such bound and a
+run is the same for the same seed). The executor takes the plan from this interpreter's
+planner rather than reading the kit's ``Plan`` back (:func:`plan_table`), and every call
+runs with Python's cycle collector held off
+(:func:`~warehouse_phys.lorr.startkit.planner.collector_paused`).
 
 The executor learns what happened to the tick it commanded from the kit's states at its
 next call: the robots it told GO that the kit reports delayed did not advance (the kit
@@ -46,7 +59,12 @@ from typing import Any, TypeVar
 import numpy as np
 
 from warehouse_phys.lorr.startkit.executor import EntryExecutor, plan_steps, window_steps
-from warehouse_phys.lorr.startkit.planner import EntryPlanner, goals_after_queue, with_held
+from warehouse_phys.lorr.startkit.planner import (
+    EntryPlanner,
+    collector_paused,
+    goals_after_queue,
+    with_held,
+)
 from warehouse_phys.lorr.startkit.scheduler import EntryScheduler, OpenTasks
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES
@@ -65,25 +83,41 @@ _SCHEDULED = threading.Event()
 _SCHEDULER = threading.Event()
 #: This interpreter's scheduler, whose held tasks its planner plans for.
 _SCHEDULERS: list[EntryScheduler] = []
+#: The queues' walk (:func:`queue_cells`) of this interpreter's executor once it staged
+#: the round's plan, until the scheduler takes it: the kit's staged actions then are those
+#: queues, so the scheduler need not read ten thousand of them back.
+_EXECUTED: list[np.ndarray] = []
+#: The plan this interpreter's planner answered last, until the executor takes it.
+_PLANNED: list[np.ndarray] = []
+#: When this interpreter's scheduler began the round's computation [perf_counter s].
+_ROUND_BEGUN = [0.0]
+#: The share of the kit's ``time_limit`` a round (the scheduler and the planner together)
+#: aims at: the rest is the answers' way back into the kit, and the machine's load.
+ROUND_SHARE = 0.6
 
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 
 def timed(call: str) -> Callable[[F], F]:
-    """A component's method whose wall time goes to ``WAREHOUSE_PHYS_TIMINGS``, if set."""
+    """A component's method whose wall time goes to ``WAREHOUSE_PHYS_TIMINGS``, if set, run
+    with Python's cycle collector held off (:func:`collector_paused`: the calls build
+    lists of the kit's objects a robot, and no cycles)."""
 
     def wrap(method: F) -> F:
         def run(*args: Any, **kwargs: Any) -> Any:
             path = os.environ.get("WAREHOUSE_PHYS_TIMINGS")
             if not path:
-                return method(*args, **kwargs)
-            begun = time.perf_counter()
+                with collector_paused():
+                    return method(*args, **kwargs)
+            begun, cpu = time.perf_counter(), time.thread_time()
             try:
-                return method(*args, **kwargs)
+                with collector_paused():
+                    return method(*args, **kwargs)
             finally:
+                wall, cpu = time.perf_counter() - begun, time.thread_time() - cpu
                 with open(path, "a") as out:
-                    out.write(f"{call} {time.perf_counter() - begun:.6f}\n")
+                    out.write(f"{call} {wall:.6f} {cpu:.6f}\n")
 
         return run  # type: ignore[return-value]
 
@@ -249,7 +283,11 @@ class PlannerAdapter:
         tick = None if not self._calls else int(env.system_timestep)  # the first: tick 0
         self._calls += 1
         steps = window_steps(tick, round_ticks(env), env.max_counter)
-        return self.core.plan(cells, headings, goals, steps).tolist()
+        begun = _ROUND_BEGUN[0] if _SCHEDULER.is_set() else time.perf_counter()
+        seconds = max(0.0, begun + ROUND_SHARE * time_limit / 1000 - time.perf_counter())
+        actions = self.core.plan(cells, headings, goals, steps, seconds=seconds)
+        _PLANNED[:] = [actions]  # the executor's next plan (see plan_table)
+        return actions.tolist()
 
 
 class SchedulerAdapter:
@@ -269,6 +307,7 @@ class SchedulerAdapter:
         _SCHEDULER.set()
 
     def plan(self, time_limit: int) -> list[int]:
+        _ROUND_BEGUN[0] = time.perf_counter()
         answer = self._plan(time_limit)
         # Last, after the timing's file is written: the kit copies the answer before it
         # lets go of Python's lock, and the executor goes on once this is set.
@@ -285,10 +324,33 @@ class SchedulerAdapter:
             current = np.full(n, -1, dtype=np.int64)
         pool, book = env.task_pool, book_of(env)
         # Robots whose staged actions finish their task: a task is held for them.
-        walk = _WALKS[id(env)] = queue_cells(env, self._ahead)  # the planner's too
+        walk = _EXECUTED.pop() if _EXECUTED else None  # this interpreter's executor's
+        if walk is None or len(walk) != n:
+            walk = queue_cells(env, self._ahead)
+        _WALKS[id(env)] = walk  # the planner's too
         finishing = (current >= 0) & (goals_after_queue(walk, book.stops_of(pool, current)) < 0)
         return self.core.schedule(current, cells, book.open_tasks(pool, current),
                                   finishing).tolist()  # fmt: skip
+
+
+def plan_table(actions: Any, n: int) -> np.ndarray:
+    """``(N, S)`` the kit's plan ``actions`` (its ``Plan.actions``) as action numbers, waits
+    (3) after a robot's last. The kit hands the executor the plan its planner answered:
+    when this interpreter's planner made it, its own array is taken (the kit's ten
+    thousand lists of actions cost a tenth of a second to read), once a few robots'
+    actions, spread over the fleet, are checked to be the kit's; else the kit's are read."""
+    if _PLANNED:
+        table = _PLANNED.pop()
+        if len(table) == n == len(actions) and table.shape[1]:
+            probes = np.unique(np.linspace(0, n - 1, min(n, 16)).astype(np.int64)).tolist()
+            if all([int(a) for a in actions[i]] == table[i].tolist() for i in probes):
+                return table
+    rows = [[int(a) for a in robot] for robot in actions]
+    width = max(map(len, rows), default=0)
+    table = np.full((n, width), 3, dtype=np.int64)
+    for robot, row in enumerate(rows[:n]):
+        table[robot, : len(row)] = row
+    return table
 
 
 class ExecutorAdapter:
@@ -322,11 +384,7 @@ class ExecutorAdapter:
         self._settle()
         _SCHEDULED.clear()  # the kit starts the next round's scheduler after this call
         self._round = True
-        actions = [[int(a) for a in robot] for robot in plan.actions]
-        width = max(map(len, actions), default=0)
-        table = np.full((n, width), 3, dtype=np.int64)
-        for robot, row in enumerate(actions[:n]):
-            table[robot, : len(row)] = row
+        table = plan_table(plan.actions, n)
         before = self._queue_lengths()
         try:
             self.core.process_new_plan(table)
@@ -344,6 +402,7 @@ class ExecutorAdapter:
                 del staged[kept:]
             staged.extend([kinds[code] for code in queue[robot, kept : after[robot]].tolist()])
         cells, headings = self.core.predicted()
+        _EXECUTED[:] = [self.core.executor.queue_cells()]  # the round's walk (see _EXECUTED)
         return [MAPF.State(int(c), -1, int(h)) for c, h in zip(cells.tolist(), headings.tolist(),
                                                               strict=True)]  # fmt: skip
 
@@ -381,7 +440,9 @@ class ExecutorAdapter:
             state = states[robot]
             if state.delay.inDelay:
                 delayed[robot] = True
-            elif (state.counter.count, state.location, state.orientation) == (done, cell, heading):
+            elif state.counter.count != done:  # read first: it moved for most robots
+                continue
+            elif (state.location, state.orientation) == (cell, heading):
                 delayed[robot] = True  # told GO, not delayed, did not advance: refused
                 refused += 1
         if refused:

@@ -22,6 +22,11 @@ pymunk nor pygame.
 
 from __future__ import annotations
 
+import gc
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 
 from warehouse_phys.execution.plan_checks import NO_ROBOT, rows_cols
@@ -38,6 +43,16 @@ from warehouse_phys.world.traffic import neighbour_table
 ENTRY_PLANNERS = ("guided", "pibt")
 #: Most steps a window may hold.
 MAX_STEPS = 64
+#: The guided planner's guidance in the entry: the package's defaults but lighter prices
+#: on traffic, for every map: a move into a cell that other guide paths leave costs 0.1
+#: a path (``vertex_weight``, 0.5 by default), a turn there 0.25 (``turn_traffic_weight``,
+#: 0.5). By the kit's rules (:mod:`~warehouse_phys.lorr.startkit.system`, 600 ticks,
+#: delay seeds 0-5), the weight 0.1 gave 505.7 tasks against 497.2 on random-example_400
+#: and 79.8 against 76.3 on maze-example_40 (0.25: 504.8 and 78.0; 0: 488.7 and 76.2),
+#: and its guide-path searches, whose moves cost less above the Manhattan heuristic,
+#: expand about half the cells; the turns' 0.25 then 508.1 against 502.2 and 80.2 against
+#: 80.6 (seeds 6-13).
+ENTRY_GUIDANCE = GuidanceConfig(vertex_weight=0.1, turn_traffic_weight=0.25)
 #: Plans in a row a robot with an errand elsewhere may start on one cell before it is
 #: taken for stuck (about :data:`STUCK_PLANS` rounds of the kit's).
 STUCK_PLANS = 5
@@ -53,7 +68,7 @@ def entry_planner(name: str, grid: WarehouseGrid, seed: int = 0) -> GuidedPIBT |
         ValueError: for another name.
     """
     if name == "guided":
-        return GuidedPIBT(grid, seed=seed, moves="rotate", config=GuidanceConfig())
+        return GuidedPIBT(grid, seed=seed, moves="rotate", config=ENTRY_GUIDANCE)
     if name == "pibt":
         return PIBT(grid, seed=seed, moves="rotate")
     raise ValueError(f"unknown planner {name!r}; known: {', '.join(ENTRY_PLANNERS)}")
@@ -90,15 +105,22 @@ class EntryPlanner:
         self._still = np.zeros(0, dtype=np.int64)
         self._detour = np.zeros(0, dtype=np.int64)
         self._left = np.zeros(0, dtype=np.int64)
+        self._other = 0.0  # a step's time besides its guide-path searches [s]
 
     def plan(
         self, cells: np.ndarray, headings: np.ndarray, goals: np.ndarray,
-        steps: int | None = None,
+        steps: int | None = None, *, seconds: float | None = None,
     ) -> np.ndarray:  # fmt: skip
         """``(N, steps)`` int64: each robot's actions from ``cells`` (``(N,)`` cell indices)
         and ``headings`` (``(N,)`` 0..3) towards ``goals`` (``(N,)`` cell indices, -1: no
         errand, the robot keeps its cell unless pushed), ``steps`` of them (0 to
         :data:`MAX_STEPS`; default :attr:`steps`). No step rotates robots.
+
+        ``seconds`` bounds the guided planner's guide-path searches so that the plan takes
+        about that long [s, wall clock] (``_deadline``; the start kit's rounds are
+        real time): robots left without a guide path step by PIBT's distances, and the
+        plan may differ between runs. ``None`` (default): no bound, the same plan for the
+        same inputs.
 
         A robot that starts :data:`STUCK_PLANS` plans in a row on the same cell, an errand
         elsewhere, is stuck (PIBT for turning robots, which may not rotate here, locks a
@@ -111,17 +133,28 @@ class EntryPlanner:
             ValueError: as the planner refuses its inputs (a fleet of another size than the
                 last call's, headings out of 0..3).
         """
+        end = None if seconds is None else time.perf_counter() + float(seconds)
         here = np.asarray(cells, dtype=np.int64).copy()
         facing = np.asarray(headings, dtype=np.int64).copy()
         goals = self._detoured(here, np.asarray(goals, dtype=np.int64))
         steps = self.steps if steps is None else check_whole("steps", steps, 0, MAX_STEPS)
         actions = np.empty((len(here), steps), dtype=np.int64)
-        for s in range(steps):
-            step, kept = self._step(here, facing, goals)
-            actions[:, s] = step
-            facing = turned(facing, step)
-            here = kept
+        with collector_paused():
+            for s in range(steps):
+                step, kept = self._step(here, facing, goals, self._deadline(end, steps - s))
+                actions[:, s] = step
+                facing = turned(facing, step)
+                here = kept
         return actions
+
+    def _deadline(self, end: float | None, steps_left: int) -> float | None:
+        """When this step's guide-path searches stop for the plan to end at ``end``: an
+        equal share of the time left a step, less what the last step spent besides its
+        searches (PIBT's own work)."""
+        if end is None or not isinstance(self.planner, GuidedPIBT):
+            return None
+        now = time.perf_counter()
+        return now + (end - now) / steps_left - self._other
 
     @property
     def detours(self) -> np.ndarray:
@@ -162,7 +195,7 @@ class EntryPlanner:
         return found
 
     def _step(
-        self, here: np.ndarray, facing: np.ndarray, goals: np.ndarray
+        self, here: np.ndarray, facing: np.ndarray, goals: np.ndarray, deadline: float | None
     ) -> tuple[np.ndarray, np.ndarray]:
         """One joint step without rotations: its actions and the cells they lead to. A
         step with rotations is planned again with one robot of each (the lowest-numbered)
@@ -172,8 +205,12 @@ class EntryPlanner:
         cols = self.grid.cols
         aims = np.where(goals >= 0, goals, here)
         for attempt in range(REPLANS + 1):
+            begun = time.perf_counter()
+            bound = {} if deadline is None else {"deadline": deadline}
             step = self.planner.plan(rows_cols(here, cols), rows_cols(aims, cols),
-                                     headings=facing)  # fmt: skip
+                                     headings=facing, **bound)  # fmt: skip
+            if deadline is not None:  # what the step spends besides its searches [s]
+                self._other = time.perf_counter() - begun - self.planner.guidance.search_seconds
             forward = step == TurnAction.FORWARD
             wanted = np.where(forward, self.ahead[here, facing], here)
             heads = rotation_heads(here, wanted, self._occupant)
@@ -182,6 +219,20 @@ class EntryPlanner:
             aims[heads] = here[heads]
         kept = without_rotations(here, wanted, self._occupant)
         return np.where(forward & (kept != wanted), TurnAction.WAIT, step), kept
+
+
+@contextmanager
+def collector_paused() -> Iterator[None]:
+    """Python's cycle collector held off for a while: a plan builds a list a robot a step
+    (PIBT's candidates) and no cycles, so at 10,000 robots the collector's passes over
+    the whole heap took a tenth of a plan for nothing; it is on again after, as it was."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
 
 
 def goals_after_queue(queue_cells: np.ndarray, stops: np.ndarray) -> np.ndarray:

@@ -275,16 +275,16 @@ class PIBT:
         # Candidates of every moving robot, nearest to the goal first, in one look-up.
         candidates = self._floor.table[here[moving]]  # (m, 5): the four moves, then staying
         targets = np.repeat(goal[moving], FLEET_ACTIONS).reshape(-1, FLEET_ACTIONS)
-        if distances is self.distances:
-            distance = distances.lookup(candidates, targets).astype(np.float64)
-        else:  # round the held cells, but not towards one: that goal is on the plain floor
-            distance = np.empty(candidates.shape, dtype=np.float64)
-            onto_held = self._floor.plain[moving]
-            for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
-                if rows.any():
-                    distance[rows] = maps.lookup(candidates[rows], targets[rows])
-        if values is not None:  # a guide's values where it gives them
-            given = np.asarray(values, dtype=np.float64)[moving]
+        given = None if values is None else np.asarray(values, dtype=np.float64)[moving]
+        # Distances only for the robots the guide leaves (a goal's map costs a search).
+        wanted = None if given is None else np.isnan(given).any(axis=1)
+        if wanted is None or wanted.all():
+            distance = self._distances(candidates, targets, moving, distances)
+        else:
+            distance = np.zeros(candidates.shape, dtype=np.float64)
+            distance[wanted] = self._distances(candidates[wanted], targets[wanted],
+                                               moving[wanted], distances)  # fmt: skip
+        if given is not None:  # a guide's values where it gives them
             distance = np.where(np.isnan(given), distance, given)
         blocked = candidates[:, :WAIT] == here[moving, None]  # a move into a wall or shelf
         distance[:, :WAIT][blocked] = np.inf  # UNREACHABLE cells stay last but one
@@ -300,10 +300,29 @@ class PIBT:
         ranked = np.take_along_axis(candidates, order, axis=1)
         ranked[np.take_along_axis(np.isinf(distance), order, axis=1)] = NIL
         self._first_choice = ranked[:, 0]
+        rows = ranked.tolist()
+        if len(moving) == n:  # every robot moves: ``moving`` is 0..n-1
+            return rows
         ranked_of: list[list[int] | None] = [None] * n
-        for i, row in zip(moving.tolist(), ranked.tolist(), strict=True):
+        for i, row in zip(moving.tolist(), rows, strict=True):
             ranked_of[i] = row
         return ranked_of
+
+    def _distances(
+        self, candidates: np.ndarray, targets: np.ndarray, moving: np.ndarray,
+        distances: DistanceMaps,
+    ) -> np.ndarray:  # fmt: skip
+        """The moves from ``candidates`` to ``targets`` (float64) of the ``moving`` robots
+        they belong to: on ``distances`` (round the held cells), but towards a held cell
+        on the plain floor's."""
+        if distances is self.distances:
+            return distances.lookup(candidates, targets).astype(np.float64)
+        distance = np.empty(candidates.shape, dtype=np.float64)
+        onto_held = self._floor.plain[moving]
+        for rows, maps in ((onto_held, self.distances), (~onto_held, distances)):
+            if rows.any():
+                distance[rows] = maps.lookup(candidates[rows], targets[rows])
+        return distance
 
     def _update_priorities(self, here: np.ndarray, goal: np.ndarray) -> None:
         """Grow the robots' priorities (:func:`grow_priorities`)."""
