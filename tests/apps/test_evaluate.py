@@ -68,6 +68,16 @@ def test_a_run_counts_tasks_and_sets_them_beside_the_best_known(tmp_path):
     assert run_job(job.to_dict())["finished"] == row["finished"]  # the same for a seed
 
 
+def test_a_run_with_the_assignment_scheduler_and_the_repair(tmp_path):
+    path = tiny_instance(tmp_path, robots=4)
+    job = Job("guided-repair", str(path), 0, 30, scheduler="assignment=0.5")
+    row = run_job(job.to_dict())
+    assert row["refused"] == 0
+    assert row["finished"] > 0
+    assert run_job(job.to_dict())["finished"] == row["finished"]
+    assert job.name != Job("guided-repair", str(path), 0, 30, scheduler="makespan").name
+
+
 def test_finished_rows_are_kept_and_a_broken_file_is_not_finished(tmp_path):
     jobs = [Job("guided", "a.json", 0, 10), Job("guided", "a.json", 1, 10)]
     write_row(tmp_path, {"name": jobs[0].name, "steps": 10, "per_step": 1.0})
@@ -104,7 +114,8 @@ def test_the_table_and_figure_are_written(tmp_path):
     ("argv", "message"),
     [(["--planners", "fast"], "unknown planner 'fast'"),
      (["--guidance", '{"vertex_weight": -1}'], "vertex_weight"),
-     (["--scheduler", "fastest"], "unknown 'fastest'"),
+     (["--scheduler", "fastest"], "unknown scheduler 'fastest'"),
+     (["--scheduler", "assignment=-1"], "finite weight"),
      (["--seeds", "a"], "--seeds"),
      (["--rounds", "2024"], "--rounds needs --archive"),
      (["--instances", "missing.json"], "--instances")],

@@ -59,17 +59,19 @@ def reservations_hold(window, plan, chosen):
 
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**16), neighbourhood=st.integers(2, 10), depth=st.integers(1, 4),
-       corner_follows=st.booleans())  # fmt: skip
+       corner_follows=st.booleans(), time_limit=st.sampled_from([None, 0.0, 1e-4]))  # fmt: skip
 def test_the_repair_never_makes_a_plan_worse_nor_lets_robots_meet(
-    seed, neighbourhood, depth, corner_follows
+    seed, neighbourhood, depth, corner_follows, time_limit
 ):
     """On random floors, a one-step PIBT plan repaired: the plan's value (the sum of its
     operations' values) never grows, the repaired reservations keep every two robots apart
-    at every step of the window, and traffic grants every first action."""
+    at every step of the window, and traffic grants every first action; also when the
+    repair's time runs out part way (or at once)."""
     grid, cells, goals, headings, free, rng = random_fleet(seed)
     pibt = PIBT(grid, seed=seed, moves="rotate", corner_follows=corner_follows)
     window = OperationPIBT(grid, seed=seed, depth=depth, corner_follows=corner_follows)
-    repair = WindowRepair(neighbourhood=neighbourhood, iterations=500, seed=seed)
+    repair = WindowRepair(neighbourhood=neighbourhood, iterations=500, seed=seed,
+                          time_limit=time_limit)  # fmt: skip
     for _ in range(12):
         actions = pibt.plan(cells, goals, headings=headings)
         plan = window._prepare(cells, goals, None, None, headings, None)
@@ -83,7 +85,7 @@ def test_the_repair_never_makes_a_plan_worse_nor_lets_robots_meet(
                        corner_follows)  # fmt: skip
         assert repair.stats.value_after <= repair.stats.value_before + 1e-9
         assert reservations_hold(window, plan, chosen)
-        again = WindowRepair(neighbourhood=neighbourhood, seed=seed)
+        again = WindowRepair(neighbourhood=neighbourhood, seed=seed, time_limit=time_limit)
         repaired = window.improve(cells, goals, headings=headings, actions=actions, repair=again)
         cells, headings, refused = resolve_turning_moves(grid, cells, headings, repaired,
                                                          corner_follows=corner_follows)  # fmt: skip

@@ -42,12 +42,14 @@ def test_golden_plans_of_the_defaults(name, moves):
     assert golden_run(name, moves) == GOLDEN[(name, moves)]
 
 
-#: Runs whose plans must not depend on the process nor on the threads: the repairs, and
-#: the guidance's batched searches on one thread here and two in the other process.
+#: Runs whose plans must not depend on the process nor on the threads: the repairs, the
+#: guidance's batched searches on one thread here and two in the other process, and lanes
+#: learned from the traffic over the floor's lanes.
 ACROSS = [
     ("guided-repair", {}, {}),
     ("guided-ops-repair", {}, {}),
     ("guided", {"search_batch": 8, "workers": 1}, {"search_batch": 8, "workers": 2}),
+    ("guided", *[{"learned_lane_paths": 2, "learn_period": 4, "floor_lane_paths": 2}] * 2),
 ]
 
 

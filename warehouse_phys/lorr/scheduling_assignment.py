@@ -29,6 +29,8 @@ pygame.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import min_weight_full_bipartite_matching
@@ -50,6 +52,12 @@ CANDIDATES = 32
 LENGTH_WEIGHT = 0.5
 #: Most memory the scheduler's distance maps may hold [bytes].
 MAX_BYTES = 256 * 2**20
+#: The matching's unit of cost: 1/QUANTUM of a move. Costs are matched as whole numbers of
+#: it, because SciPy's LAPJVsp can loop forever on fractional costs (seen with SciPy 1.17:
+#: an 8 x 8 matching with a length weight of 0.31 never returned); whole numbers below
+#: 2**53 are exact, and a pairing's total is then at most robots/QUANTUM/2 moves from
+#: the least.
+QUANTUM = 1024
 
 
 class AssignmentScheduler:
@@ -58,13 +66,13 @@ class AssignmentScheduler:
 
     Args:
         grid: The floor.
-        length_weight: The weight of a task's own length in its cost (>= 0).
+        length_weight: The weight of a task's own length in its cost (finite, >= 0).
         candidates: Cheapest open tasks each robot may be paired with (>= 1).
         distances: Distance maps of the floor (new, of at most :data:`MAX_BYTES`, by
             default).
 
     Raises:
-        ValueError: for a weight below 0 or no candidates.
+        ValueError: for a weight below 0 or not finite, or no candidates.
     """
 
     def __init__(
@@ -75,8 +83,8 @@ class AssignmentScheduler:
         candidates: int = CANDIDATES,
         distances: DistanceMaps | None = None,
     ) -> None:
-        if not length_weight >= 0 or candidates < 1:
-            raise ValueError(f"length_weight must be >= 0 and candidates >= 1, got "
+        if not 0 <= length_weight < math.inf or candidates < 1:
+            raise ValueError(f"length_weight must be finite and >= 0 and candidates >= 1, got "
                              f"{length_weight!r} and {candidates!r}")  # fmt: skip
         self.grid = grid
         self.length_weight = float(length_weight)
@@ -102,7 +110,8 @@ class AssignmentScheduler:
         if not len(robot_cells) or not len(task_cells):
             return choice
         robots, tasks, cost = self._candidate_costs(robot_cells, task_cells, lengths, cols)
-        graph = csr_matrix((cost + 1.0, (robots, tasks)),
+        whole = np.rint(cost * QUANTUM) + QUANTUM  # > 0: a zero would be no edge at all
+        graph = csr_matrix((whole, (robots, tasks)),
                            shape=(len(robot_cells), len(task_cells)))  # fmt: skip
         try:
             rows, columns = min_weight_full_bipartite_matching(graph)
@@ -155,7 +164,7 @@ def scheduler_for(name: str, grid: WarehouseGrid) -> Scheduler:
         try:
             return AssignmentScheduler(grid, **({"length_weight": float(weight)} if equals else {}))
         except ValueError:
-            raise ValueError(f"assignment=W needs a weight W >= 0, got {name!r}") from None
+            raise ValueError(f"assignment=W needs a finite weight W >= 0, got {name!r}") from None
     if name not in SCHEDULERS:
         raise ValueError(f"unknown scheduler {name!r}; known: {', '.join(SCHEDULER_NAMES)}")
     return scheduler_named(name)

@@ -35,7 +35,10 @@ a robot put out while it faces a wall cannot leave at once; in crowds of turning
 robots every operation that brings the robots at the top nearer their goals can meet
 two or more others, and the robots wait more and more (2024 WAREHOUSE's rows below its
 pick-up pockets; with smaller ``revisits`` and ``max_kicks`` the fleet locked up: the
-README). Nor does it plan beyond its operations' steps (no LNS).
+documentation's LoRR page, ``docs/lorr.md``, "Planning over operations"). Nor does it
+plan beyond its operations' steps by itself: a
+:class:`~warehouse_phys.planners.repair.WindowRepair` given to :meth:`OperationPIBT.plan`
+improves the plan over them (LNS).
 
 What it promises: every plan is granted by the traffic rule (the reservations forbid two
 robots in one cell and swaps at every depth, and the step's actions pass

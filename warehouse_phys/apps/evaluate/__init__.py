@@ -72,7 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="steps a run (default: the archive's simulation time)")  # fmt: skip
     parser.add_argument("--moves", choices=("rotate", "grid"), default="rotate",
                         help="robot model (default rotate, LoRR's turning robots)")  # fmt: skip
-    parser.add_argument("--scheduler", help="a 2024 instance's built-in scheduler")
+    parser.add_argument("--scheduler", help="a 2024 instance's scheduler: nearest, makespan, "
+                        "assignment or assignment=W")  # fmt: skip
     parser.add_argument("--guidance", type=json.loads, default={}, metavar="JSON",
                         help="the guided planners' GuidanceConfig fields")  # fmt: skip
     parser.add_argument("--out", type=Path, help="the suite's folder (evaluations/<time>)")
@@ -90,8 +91,9 @@ def jobs_from_args(args: argparse.Namespace) -> list[Job]:
         UsageError: naming the argument or file at fault.
     """
     from warehouse_phys.lorr.instances import read_instance
-    from warehouse_phys.lorr.scheduling import SCHEDULERS
+    from warehouse_phys.lorr.scheduling_assignment import scheduler_for
     from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
+    from warehouse_phys.world.grid import WarehouseGrid
 
     planners = [name for name in args.planners.split(",") if name]
     for name in planners:
@@ -101,8 +103,11 @@ def jobs_from_args(args: argparse.Namespace) -> list[Job]:
             planner_policy(name, **({} if name == "pibt" else args.guidance))
         except (TypeError, ValueError) as error:
             raise UsageError(f"--guidance: {error}") from None
-    if args.scheduler is not None and args.scheduler not in SCHEDULERS:
-        raise UsageError(f"--scheduler: unknown {args.scheduler!r}; known: {', '.join(SCHEDULERS)}")
+    if args.scheduler is not None:
+        try:
+            scheduler_for(args.scheduler, WarehouseGrid(2, 2))  # the name alone
+        except ValueError as error:
+            raise UsageError(f"--scheduler: {error}") from None
     seeds = parse_seeds(args.seeds)
     table, listed = {}, [(path, None) for path in args.instances]
     if args.archive is not None:

@@ -31,7 +31,9 @@ class Job:
     """One run of a suite: ``planner`` (a name of
     :data:`~warehouse_phys.rl.fleet_planners.PLANNERS`) on ``instance`` (a LoRR JSON file)
     for ``steps`` steps with ``seed``; ``moves`` the robot model, ``scheduler`` a 2024
-    instance's built-in scheduler (None: the fleet's default), ``guidance`` fields of the
+    instance's scheduler (a name of
+    :func:`~warehouse_phys.lorr.scheduling_assignment.scheduler_for`; None: the fleet's
+    default), ``guidance`` fields of the
     planner's guidance, ``best`` the instance's best known ``[count, steps]`` if any."""
 
     planner: str
@@ -65,13 +67,15 @@ def run_job(job: dict[str, Any]) -> dict[str, Any]:
 
     from warehouse_phys.envs import lorr
     from warehouse_phys.lorr.instances import SCHEDULED, read_instance
-    from warehouse_phys.lorr.scheduling import scheduler_named
+    from warehouse_phys.lorr.scheduling_assignment import scheduler_for
     from warehouse_phys.rl.fleet_planners import planner_policy
 
     spec = Job(**{**job, "best": tuple(job["best"]) if job.get("best") else None})
     instance = read_instance(spec.instance)
     scheduled = instance.assignment == SCHEDULED
-    options = {"scheduler": scheduler_named(spec.scheduler)} if spec.scheduler and scheduled else {}
+    options = {}
+    if spec.scheduler and scheduled:  # the scheduler of a 2024 instance (2023 assigns errands)
+        options["scheduler"] = scheduler_for(spec.scheduler, instance.grid)
     env = lorr.fleet(instance, moves=spec.moves, max_cycles=spec.steps, **options)
     policy = planner_policy(spec.planner, seed=spec.seed, **spec.guidance)
     gc.freeze()  # the floor's objects leave Python's full collections, as simulate does
