@@ -1,6 +1,9 @@
 """The documentation site (docs/): it builds with no warning and every reference resolved,
 a broken one fails it, and every code block of its pages runs as a reader would run it.
 
+The README follows the pages' convention, and its blocks run the same way: it is the
+site's front door, at most :data:`README_LINES` lines, and every link of it resolves.
+
 The convention the pages follow (docs/index.md, "How the docs are written"): a block
 fenced as ``python`` runs as a script, a ``console`` block's ``$ `` lines run as commands,
 each block in a fresh empty folder; ``text`` and plain fences are not run. The ``python``
@@ -24,12 +27,16 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 PACKAGE = ROOT / "warehouse_phys"
+README = ROOT / "README.md"
+#: The README's length at most [lines]: what it is, the two commands, five capabilities
+#: with an example each, and links; everything else is a page of the site.
+README_LINES = 250
 
 #: What a copy of docs/ leaves out: a local build, the generated API pages, caches.
 NOT_COPIED = ("_build", "api", "__pycache__")
 #: Longest a code block of the docs may run [s]: generous, but a hung example fails.
 BLOCK_TIMEOUT = 300
-#: Longest the build may run here [s]: it takes about 35 s of CPU; a busy machine slows it.
+#: Longest the build may run here [s]: it takes about 30 s of CPU; a busy machine slows it.
 BUILD_TIMEOUT = 600
 #: Other names for Python or shell code: refused, so that no example is left out of the
 #: tests by its fence (write ``python``, or ``console`` with ``$ `` before each command).
@@ -118,8 +125,9 @@ def docstring_examples() -> list[CodeBlock]:
 
 @functools.cache
 def all_blocks() -> list[CodeBlock]:
-    """Every fenced block of the pages and of the docstrings' examples."""
-    blocks = [b for page in docs_pages() for b in fenced_blocks(page.read_text(), page.name)]
+    """Every fenced block of the pages, the README and the docstrings' examples."""
+    pages = [*docs_pages(), README]
+    blocks = [b for page in pages for b in fenced_blocks(page.read_text(), page.name)]
     return blocks + docstring_examples()
 
 
@@ -269,3 +277,19 @@ def test_code_block_runs_in_a_fresh_folder(block, tmp_path):
             f"{block.where}: {command!r} exited {result.returncode}:\n"
             f"{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
         )
+
+
+def test_the_readme_is_a_short_front_door_whose_links_resolve():
+    text = README.read_text()
+    assert len(text.splitlines()) <= README_LINES
+    assert {"python", "console"} <= {b.language for b in fenced_blocks(text, "README.md")}
+    # Relative links and pictures (the docs' pages, ARCHITECTURE.md, docs/*.gif) exist.
+    targets = re.findall(r"\]\(([^)\s]+)\)", text)
+    local = [t.split("#")[0] for t in targets if not re.match(r"[a-z]+:", t)]
+    assert len(local) >= 10
+    missing = [t for t in local if t and not (ROOT / t).is_file()]
+    assert not missing, f"README links to files that do not exist: {missing}"
+    pages = {p.relative_to(ROOT).as_posix() for p in docs_pages()}
+    linked = {t for t in local if t.startswith("docs/") and t.endswith(".md")}
+    assert len(linked) >= 8
+    assert linked <= pages

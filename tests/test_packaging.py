@@ -1,7 +1,6 @@
 """The package as a user installs it: wheel contents, sprites outside a checkout, the CLI, lint."""
 
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -65,29 +64,6 @@ def test_sprites_and_maps_load_from_an_installed_wheel(tmp_path, run_python):
     assert out[1] == "(280, 320, 3)"
     assert Path(out[2]).is_relative_to(site)
     assert out[3] == "(33, 46)"
-
-
-def test_readme_python_examples_run_as_scripts(tmp_path):
-    """Every python block of the README, saved as a script of its own and run as a reader
-    would run it (``python example.py``): a block that starts processes must survive
-    being imported again by them under ``spawn``."""
-    readme = (ROOT / "README.md").read_text()
-    blocks = re.findall(r"```python\n(.*?)```", readme, re.DOTALL)
-    assert len(blocks) >= 2
-    running = []
-    for i, block in enumerate(blocks):
-        folder = tmp_path / f"example{i}"  # examples may write files
-        folder.mkdir()
-        (folder / "example.py").write_text(block)
-        running.append(
-            subprocess.Popen(
-                [sys.executable, "example.py"], cwd=folder, stdout=subprocess.DEVNULL,
-                stderr=subprocess.PIPE, text=True,
-            )
-        )  # fmt: skip
-    for i, process in enumerate(running):
-        _, err = process.communicate(timeout=120)
-        assert process.returncode == 0, f"README python block {i}:\n{err}"
 
 
 @pytest.mark.parametrize("check", [["check"], ["format", "--check"]])

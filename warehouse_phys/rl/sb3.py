@@ -10,7 +10,8 @@ environments. Install the extra first (``pip install "warehouse_phys[sb3]"``).
 
 Every recipe below runs as written in ``tests/rl/test_sb3.py``, in the order given
 (a later one may use the names an earlier one imported); the two that learn the
-default floor are the README's, and the tests check what their comments say.
+default floor are the documentation's (``docs/single-robot.md``), and the tests check what
+their comments say.
 
 Pin PyTorch to one thread first. By default it runs a thread per core, and for
 networks this small the threads mostly wait on one another: on the 2-core
