@@ -115,7 +115,7 @@ def test_the_table_and_figure_are_written(tmp_path):
     [(["--planners", "fast"], "unknown planner 'fast'"),
      (["--guidance", '{"vertex_weight": -1}'], "vertex_weight"),
      (["--scheduler", "fastest"], "unknown scheduler 'fastest'"),
-     (["--scheduler", "assignment=-1"], "finite weight"),
+     (["--scheduler", "assignment=-1"], "a weight W from 0 to 1000"),
      (["--seeds", "a"], "--seeds"),
      (["--rounds", "2024"], "--rounds needs --archive"),
      (["--instances", "missing.json"], "--instances")],

@@ -133,7 +133,8 @@ def test_schedulers_by_name_and_bad_settings():
     assert scheduler_for("nearest", grid) is nearest_free_robot
     assert isinstance(scheduler_for("assignment", grid), AssignmentScheduler)
     assert scheduler_for("assignment=1.5", grid).length_weight == 1.5
-    for bad in ("fastest", "assignment=-1", "assignment=x", "assignment=inf"):
+    assert scheduler_for("assignment=1000", grid).length_weight == 1000
+    for bad in ("fastest", "assignment=-1", "assignment=x", "assignment=inf", "assignment=1e12"):
         with pytest.raises(ValueError, match=r"assignment|unknown"):
             scheduler_for(bad, grid)
     with pytest.raises(ValueError, match="length_weight"):

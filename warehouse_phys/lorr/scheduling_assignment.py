@@ -29,8 +29,6 @@ pygame.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import min_weight_full_bipartite_matching
@@ -58,6 +56,10 @@ MAX_BYTES = 256 * 2**20
 #: 2**53 are exact, and a pairing's total is then at most robots/QUANTUM/2 moves from
 #: the least.
 QUANTUM = 1024
+#: The largest ``length_weight`` taken: a task's length weighed a thousand times the way
+#: to it is past any use, and it keeps every cost a whole number below 2**53 (a floor's
+#: longest distance, 2,048 x 2,048 cells, times the weight times QUANTUM).
+MAX_LENGTH_WEIGHT = 1000.0
 
 
 class AssignmentScheduler:
@@ -66,7 +68,8 @@ class AssignmentScheduler:
 
     Args:
         grid: The floor.
-        length_weight: The weight of a task's own length in its cost (finite, >= 0).
+        length_weight: The weight of a task's own length in its cost (0 to
+            :data:`MAX_LENGTH_WEIGHT`).
         candidates: Cheapest open tasks each robot may be paired with (>= 1).
         distances: Distance maps of the floor (new, of at most :data:`MAX_BYTES`, by
             default).
@@ -83,9 +86,9 @@ class AssignmentScheduler:
         candidates: int = CANDIDATES,
         distances: DistanceMaps | None = None,
     ) -> None:
-        if not 0 <= length_weight < math.inf or candidates < 1:
-            raise ValueError(f"length_weight must be finite and >= 0 and candidates >= 1, got "
-                             f"{length_weight!r} and {candidates!r}")  # fmt: skip
+        if not 0 <= length_weight <= MAX_LENGTH_WEIGHT or candidates < 1:
+            raise ValueError(f"length_weight must be 0 to {MAX_LENGTH_WEIGHT:g} and candidates "
+                             f">= 1, got {length_weight!r} and {candidates!r}")  # fmt: skip
         self.grid = grid
         self.length_weight = float(length_weight)
         self.candidates = int(candidates)
@@ -164,7 +167,9 @@ def scheduler_for(name: str, grid: WarehouseGrid) -> Scheduler:
         try:
             return AssignmentScheduler(grid, **({"length_weight": float(weight)} if equals else {}))
         except ValueError:
-            raise ValueError(f"assignment=W needs a finite weight W >= 0, got {name!r}") from None
+            raise ValueError(
+                f"assignment=W needs a weight W from 0 to {MAX_LENGTH_WEIGHT:g}, got {name!r}"
+            ) from None
     if name not in SCHEDULERS:
         raise ValueError(f"unknown scheduler {name!r}; known: {', '.join(SCHEDULER_NAMES)}")
     return scheduler_named(name)
