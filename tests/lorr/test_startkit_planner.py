@@ -126,3 +126,34 @@ def test_the_collector_is_paused_and_then_as_it_was():
             assert gc.isenabled() == enabled
         finally:
             gc.enable()
+
+
+def test_the_collector_stays_paused_until_the_last_of_overlapping_calls_ends():
+    """The kit's planner thread and its executor calls overlap: the one that ends first
+    must not switch the collector back on under the other."""
+    import gc
+    import threading
+
+    from warehouse_phys.lorr.startkit.planner import collector_paused
+
+    planning, executor_done = threading.Event(), threading.Event()
+    seen = []
+
+    def planner() -> None:
+        with collector_paused():
+            planning.set()
+            executor_done.wait(10)
+            seen.append(gc.isenabled())  # after the executor's call ended
+
+    gc.enable()
+    try:
+        with collector_paused():  # an executor call, begun first
+            thread = threading.Thread(target=planner)
+            thread.start()
+            assert planning.wait(10)
+        executor_done.set()
+        thread.join(10)
+        assert seen == [False]
+        assert gc.isenabled()
+    finally:
+        gc.enable()

@@ -23,6 +23,7 @@ pymunk nor pygame.
 from __future__ import annotations
 
 import gc
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -221,18 +222,36 @@ class EntryPlanner:
         return np.where(forward & (kept != wanted), TurnAction.WAIT, step), kept
 
 
+class _CollectorPauses:
+    """How many calls hold the collector off, across threads (the kit runs its planner in
+    a thread of its own while its main thread calls the executor), and whether it was on
+    when the first of them began."""
+
+    lock = threading.Lock()
+    holders = 0
+    was_enabled = False
+
+
 @contextmanager
 def collector_paused() -> Iterator[None]:
     """Python's cycle collector held off for a while: a plan builds a list a robot a step
     (PIBT's candidates) and no cycles, so at 10,000 robots the collector's passes over
-    the whole heap took a tenth of a plan for nothing; it is on again after, as it was."""
-    was = gc.isenabled()
-    gc.disable()
+    the whole heap took a tenth of a plan for nothing. Calls may overlap, in one thread or
+    several: the collector stays off until the last of them ends, and is then as it was
+    before the first began."""
+    pauses = _CollectorPauses
+    with pauses.lock:
+        if pauses.holders == 0:
+            pauses.was_enabled = gc.isenabled()
+            gc.disable()
+        pauses.holders += 1
     try:
         yield
     finally:
-        if was:
-            gc.enable()
+        with pauses.lock:
+            pauses.holders -= 1
+            if pauses.holders == 0 and pauses.was_enabled:
+                gc.enable()
 
 
 def goals_after_queue(queue_cells: np.ndarray, stops: np.ndarray) -> np.ndarray:
