@@ -26,6 +26,17 @@ from warehouse_phys.world.grid import Action
 NO_LANE = -1
 
 
+def _neighbours(free: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``free`` checked, and whether each cell's left, right, upper and lower neighbour
+    is free (the floor's edge is not), each ``(rows, cols)``."""
+    free = np.asarray(free)
+    if free.ndim != 2 or free.dtype != bool:
+        raise ValueError(f"free must be a (rows, cols) boolean mask, got {free.dtype} "
+                         f"of shape {free.shape}")  # fmt: skip
+    walled = np.pad(free, 1, constant_values=False)
+    return free, walled[1:-1, :-2], walled[1:-1, 2:], walled[:-2, 1:-1], walled[2:, 1:-1]
+
+
 def one_way_lanes(free: np.ndarray) -> np.ndarray:
     """The lane of every free cell of a floor, ``free`` its ``(rows, cols)`` boolean mask:
     ``(n,)`` int8 in row-major order of the free cells (as
@@ -44,13 +55,7 @@ def one_way_lanes(free: np.ndarray) -> np.ndarray:
     Raises:
         ValueError: if ``free`` is not a two-dimensional boolean array.
     """
-    free = np.asarray(free)
-    if free.ndim != 2 or free.dtype != bool:
-        raise ValueError(f"free must be a (rows, cols) boolean mask, got {free.dtype} "
-                         f"of shape {free.shape}")  # fmt: skip
-    walled = np.pad(free, 1, constant_values=False)
-    left, right = walled[1:-1, :-2], walled[1:-1, 2:]
-    up, down = walled[:-2, 1:-1], walled[2:, 1:-1]
+    free, left, right, up, down = _neighbours(free)
     east_west = free & left & right & ~up & ~down
     north_south = free & up & down & ~left & ~right
     lane = np.full(free.shape, NO_LANE, dtype=np.int8)
@@ -81,13 +86,7 @@ def floor_lanes(free: np.ndarray) -> np.ndarray:
     Raises:
         ValueError: if ``free`` is not a two-dimensional boolean array.
     """
-    free = np.asarray(free)
-    if free.ndim != 2 or free.dtype != bool:
-        raise ValueError(f"free must be a (rows, cols) boolean mask, got {free.dtype} "
-                         f"of shape {free.shape}")  # fmt: skip
-    walled = np.pad(free, 1, constant_values=False)
-    left, right = walled[1:-1, :-2], walled[1:-1, 2:]
-    up, down = walled[:-2, 1:-1], walled[2:, 1:-1]
+    free, left, right, up, down = _neighbours(free)
     east_west = (free & left & right & ~up & ~down).any(axis=1)
     north_south = (free & up & down & ~left & ~right).any(axis=0)
     row_rank = np.where(east_west, np.cumsum(east_west) - 1, np.arange(free.shape[0]))
