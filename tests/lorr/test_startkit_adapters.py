@@ -75,7 +75,7 @@ def test_the_kits_map_is_our_floor():
     env = SimpleNamespace(map=(~grid.free_mask).astype(int).ravel().tolist(), rows=grid.rows,
                           cols=grid.cols)  # fmt: skip
     assert (adapters.kit_grid(env).free_mask == grid.free_mask).all()
-    assert adapters.setting("WAREHOUSE_PHYS_PLANNER") == "guided"
+    assert adapters.setting("WAREHOUSE_PHYS_PLANNER") == "guided-ops-repair"
 
 
 def test_the_executor_takes_its_planners_plan_only_when_it_is_the_kits():

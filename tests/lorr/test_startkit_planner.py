@@ -105,6 +105,7 @@ def test_a_time_bound_stops_the_guide_searches_and_the_plan_still_holds():
     bounded = EntryPlanner(grid, steps=3)
     actions = bounded.plan(instance.starts, facing, goals, seconds=0.0)
     assert bounded.planner.guidance.timed_out > 0  # no time: robots left unguided
+    assert bounded.planner.repair.stats.tried == 0  # ... and no plan repaired
     here = instance.starts.copy()
     for step in actions.T:  # ... and every step is still one the robots can make
         wanted = np.where(step == 0, ahead[here, facing], here)
@@ -157,3 +158,23 @@ def test_the_collector_stays_paused_until_the_last_of_overlapping_calls_ends():
         assert gc.isenabled()
     finally:
         gc.enable()
+
+
+def test_a_planner_short_of_time_twice_in_a_row_drops_its_operations_and_repair():
+    instance = tiny_instance()
+    facing, goals = np.zeros(8, np.int64), instance.starts[::-1].copy()
+    roomy = EntryPlanner(instance.grid, steps=3)
+    for _ in range(3):
+        roomy.plan(instance.starts, facing, goals, seconds=60.0)
+    assert not roomy.lightened
+    assert roomy.planner.operations is not None
+    short = EntryPlanner(instance.grid, steps=3)
+    short.plan(instance.starts, facing, goals, seconds=0.0)
+    assert not short.lightened  # once may be a slow start
+    short.plan(instance.starts, facing, goals, seconds=0.0)
+    assert short.lightened
+    assert short.planner.operations is None
+    assert short.planner.repair is None
+    actions = short.plan(instance.starts, facing, goals)  # one action a step from now on
+    assert actions.shape == (8, 3)
+    assert np.isin(actions, [0, 1, 2, 3]).all()

@@ -1,10 +1,13 @@
-"""The entry's scheduler: robots keep their tasks, free robots take untaken ones, and a task
-held for a robot about to be free is proposed for it once the kit frees it."""
+"""The entry's scheduler: robots keep their opened tasks, free robots take untaken ones,
+robots on their way to a task not opened are paired again, and a task held for a robot
+about to be free is proposed for it once the kit frees it."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from warehouse_phys.lorr.startkit.scheduler import EntryScheduler, OpenTasks
+from warehouse_phys.lorr.startkit.scheduler import KEEP_WITHIN, EntryScheduler, OpenTasks
 
 COLS = 10
 
@@ -46,3 +49,65 @@ def test_a_task_held_for_a_finishing_robot_is_proposed_once_it_is_free():
 def test_an_unknown_scheduler_is_refused():
     with pytest.raises(ValueError, match="unknown scheduler 'hungarian'"):
         EntryScheduler(COLS, "hungarian")
+
+
+def test_robots_on_their_way_to_a_task_not_opened_are_paired_again():
+    # Robot 0 at cell 0 is on its way to task 4 at cell 99; robot 1, freed at cell 98,
+    # and a new task 5 at cell 1: paired again, each takes the task beside it.
+    pool = tasks([4, 5], [99, 1], [0, -1])
+    current, cells = np.array([4, -1]), np.array([0, 98])
+    again = EntryScheduler(COLS, "nearest").schedule(current, cells, pool,
+                                                     unopened=np.array([True, False]))  # fmt: skip
+    assert again.tolist() == [5, 4]
+    # Told nothing, or told its task is opened, or not to pair again: robot 0 keeps it.
+    for scheduler, unopened in ((EntryScheduler(COLS, "nearest"), None),
+                                (EntryScheduler(COLS, "nearest"), np.array([False, False])),
+                                (EntryScheduler(COLS, "nearest", pair_again=False),
+                                 np.array([True, False]))):  # fmt: skip
+        assert scheduler.schedule(current, cells, pool, unopened=unopened).tolist() == [4, 5]
+
+
+def test_a_robot_next_to_its_tasks_first_errand_keeps_it():
+    near = KEEP_WITHIN  # moves from cell 0 along the first row
+    pool = tasks([4, 5], [near, 1], [0, -1])
+    proposal = EntryScheduler(COLS, "nearest").schedule(
+        np.array([4, -1]), np.array([0, near + 1]), pool, unopened=np.array([True, False])
+    )
+    assert proposal.tolist() == [4, 5]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["nearest", "makespan"]))
+def test_pairing_again_never_breaks_the_kits_checks_nor_leaves_a_robot_without_a_task(seed, name):
+    rng = np.random.default_rng(seed)
+    n, k = int(rng.integers(1, 12)), int(rng.integers(1, 20))
+    ids = np.sort(rng.choice(1000, k, replace=False))
+    holder = np.full(k, -1)
+    current = np.full(n, -1)
+    for robot, slot in enumerate(rng.choice(k, min(n, k), replace=False)):
+        if rng.random() < 0.7:
+            current[robot], holder[slot] = ids[slot], robot
+    pool = tasks(ids, rng.integers(0, 100, k), holder, rng.integers(0, 30, k))
+    unopened = (current >= 0) & (rng.random(n) < 0.6)
+    proposal = EntryScheduler(COLS, name).schedule(current, rng.integers(0, 100, n), pool,
+                                                   unopened=unopened)  # fmt: skip
+    given_out = proposal[proposal >= 0]
+    assert len(set(given_out.tolist())) == len(given_out)  # no task twice
+    assert np.isin(given_out, ids).all()
+    opened = (current >= 0) & ~unopened
+    assert (proposal[opened] == current[opened]).all()  # an opened task stays
+    assert (proposal >= 0).sum() == min(n, k)  # every robot a task while tasks are left
+
+
+def test_pairing_again_on_the_floor_takes_the_way_round_the_shelves():
+    from warehouse_phys.world.grid import WarehouseGrid
+
+    # A wall between robot 0 and the cell beside it: by the way round, the far side
+    # of the wall is not near, and the robot is paired again.
+    grid = WarehouseGrid.from_layout(["....", ".##.", ".#..", ".#.."])
+    cols = grid.cols
+    pool = tasks([4, 5], [2 * cols + 2, 3 * cols], [0, -1])
+    scheduler = EntryScheduler(cols, "assignment", grid)
+    proposal = scheduler.schedule(np.array([4, -1]), np.array([2 * cols, 3 * cols + 2]), pool,
+                                  unopened=np.array([True, False]))  # fmt: skip
+    assert proposal.tolist() == [5, 4]

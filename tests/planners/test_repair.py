@@ -135,10 +135,16 @@ def test_a_repair_with_no_iterations_or_no_time_leaves_the_plan_as_it_was():
     pibt = PIBT(grid, seed=0, moves="rotate")
     actions = pibt.plan(cells, goals, headings=headings)
     window = OperationPIBT(grid, seed=0)
-    for repair in (WindowRepair(iterations=0), WindowRepair(time_limit=0.0)):
+    past = WindowRepair()
+    past.deadline = 0.0  # an instant long gone (a planner's bound on its step)
+    for repair in (WindowRepair(iterations=0), WindowRepair(time_limit=0.0), past):
         kept = window.improve(cells, goals, headings=headings, actions=actions, repair=repair)
         assert kept.tolist() == actions.tolist()
         assert repair.stats.kept == 0
+    assert past.stats.tried == 0
+    past.deadline = None  # no bound: it searches
+    window.improve(cells, goals, headings=headings, actions=actions, repair=past)
+    assert past.stats.tried > 0
 
 
 def test_bounds_out_of_range_are_refused():

@@ -433,6 +433,11 @@ class GuidedPIBT:
                 grid, distances=self.pibt.distances, corner_follows=corner_follows, seed=seed,
                 depth=repair_depth)  # fmt: skip
 
+    def drop_operations_and_repair(self) -> None:
+        """Plan one action a step from now on, unrepaired (a caller short of time: the
+        guide paths and PIBT's state carry on)."""
+        self.operations = self.repair = self._window = None
+
     def plan(
         self,
         cells: np.ndarray,
@@ -446,7 +451,9 @@ class GuidedPIBT:
         """The next joint action, as :meth:`PIBT.plan
         <warehouse_phys.planners.pibt.PIBT.plan>` (``(N,)`` int64), guided; the guide
         paths' searches stop at ``deadline`` (a :func:`time.perf_counter` instant; the
-        robots left are PIBT's, and the plan may differ between runs), if given.
+        robots left are PIBT's, and the plan may differ between runs), if given, and so
+        does the repair's search, if any
+        (:attr:`~warehouse_phys.planners.repair.WindowRepair.deadline`).
 
         Raises:
             ValueError: as :meth:`PIBT.plan <warehouse_phys.planners.pibt.PIBT.plan>`,
@@ -466,6 +473,8 @@ class GuidedPIBT:
                 raise ValueError(f"turning robots need one heading 0..3 each ({n}), got "
                                  f"{headings!r}")  # fmt: skip
             facing = HEADING_MOVES[headings.astype(np.int64)]
+        if self.repair is not None:
+            self.repair.deadline = deadline
         values = self.guidance.update(here, goals[:, 0] * cols + goals[:, 1], movable,
                                       self.pibt.distances, here[present & ~movable],
                                       facing, deadline)  # fmt: skip

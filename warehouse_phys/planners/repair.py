@@ -26,8 +26,9 @@ So the repair never makes the plan worse by its measure, and never less safe: ev
 operation it keeps meets no other robot's reservation at any step of the window, and the
 planner passes the first actions through the traffic rule after (a refusal there, which
 the reservations rule out, would put the whole plan back as it was). Its work is bounded
-by ``iterations`` neighbourhoods a step and, optionally, ``time_limit`` seconds (checked
-between rounds of :data:`ROUND` neighbourhoods; a run that reaches it may differ from
+by ``iterations`` neighbourhoods a step and, optionally, ``time_limit`` seconds or an
+instant (:attr:`WindowRepair.deadline`, a planner's bound on its whole step), both checked
+between rounds of :data:`ROUND` neighbourhoods (a run that reaches either may differ from
 another). Deterministic for a seed otherwise.
 """
 
@@ -57,6 +58,8 @@ class RepairStats:
     value_before: float = 0.0
     value_after: float = 0.0
     fell_back: bool = False
+    #: Its wall time [s].
+    seconds: float = 0.0
 
 
 class WindowRepair:
@@ -89,6 +92,10 @@ class WindowRepair:
         self.iterations = int(iterations)
         self.time_limit = time_limit
         self.rng = np.random.default_rng(seed)
+        #: A :func:`time.perf_counter` instant after which no round of neighbourhoods
+        #: starts (None: none), besides ``time_limit``: a planner bounding its whole step
+        #: sets it before each (:meth:`~warehouse_phys.planners.guidance.GuidedPIBT.plan`).
+        self.deadline: float | None = None
         #: The last step's work (:class:`RepairStats`).
         self.stats = RepairStats()
 
@@ -142,7 +149,10 @@ class WindowRepair:
         delayed = robots[current > best + DELAYED]
         seeds = delayed[self.rng.permutation(len(delayed))]
         stats = RepairStats(value_before=float(current.sum()))
-        deadline = None if self.time_limit is None else time.perf_counter() + self.time_limit
+        begun = time.perf_counter()
+        ends = [t for t in (self.deadline, None if self.time_limit is None
+                            else begun + self.time_limit) if t is not None]  # fmt: skip
+        deadline = min(ends) if ends else None
         counts = np.zeros(2, dtype=np.int64)
         for first in range(0, min(len(seeds), self.iterations), ROUND):
             if deadline is not None and time.perf_counter() > deadline:
@@ -153,6 +163,7 @@ class WindowRepair:
                  self.neighbourhood, counts)  # fmt: skip
         stats.tried, stats.kept = int(counts[0]), int(counts[1])
         stats.value_after = float(values[robots, chosen[robots]].sum())
+        stats.seconds = time.perf_counter() - begun
         self.stats = stats
 
 

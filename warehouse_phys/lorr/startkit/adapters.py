@@ -14,7 +14,7 @@ those names. ``MAPF`` is the kit's own module; it is imported only here, inside 
 What the kit does not tell its components, they take from the environment: the robots'
 side, ``agentSize`` (``WAREHOUSE_PHYS_AGENT_SIZE``, default 1, the kit's default and
 every 2026 example's; a larger value than the instance's is safe, only slower), the
-planner (``WAREHOUSE_PHYS_PLANNER``, ``guided``) and the scheduler
+planner (``WAREHOUSE_PHYS_PLANNER``, ``guided-ops-repair``) and the scheduler
 (``WAREHOUSE_PHYS_SCHEDULER``, ``assignment``). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
 file, each call appends a line ``<call> <wall seconds> <CPU seconds of its thread>`` to
 it (the kit ends its process without Python's exit handlers, so nothing waits for the
@@ -23,7 +23,8 @@ end).
 The kit's Python bridge writes the scheduler's whole answer once it returns, over the
 robots the kit freed in the meantime (their tasks finished in the ticks that ran while it
 computed), which the kit then counts as schedule errors ("task already finished"). So the
-executor, at its first command of a round, waits (at most 80 % of its time) until the
+executor, at its first command of a round, waits (at most :data:`SCHEDULER_WAIT` of its
+time) until the
 scheduler of the same interpreter has answered: the kit writes the answer before it lets
 the executor go on (it holds Python's lock while it copies it).
 
@@ -73,10 +74,15 @@ from warehouse_phys.world.traffic import neighbour_table
 #: The environment variables the components read (see the module), with their defaults.
 SETTINGS = {
     "WAREHOUSE_PHYS_AGENT_SIZE": "1",
-    "WAREHOUSE_PHYS_PLANNER": "guided",
+    "WAREHOUSE_PHYS_PLANNER": "guided-ops-repair",
     "WAREHOUSE_PHYS_SCHEDULER": "assignment",
 }
 _GO, _STOP = 0, 1  # MAPF.ExecutionCommand
+#: The share of its time limit the executor's first command of a round waits for the
+#: scheduler's answer (the module). At 10,000 robots that command ends about 105 ms
+#: after it began, 2 ms of it CPU, with this share at 0.8 or 0.6 alike: the scheduler's
+#: thread holds Python's lock until then.
+SCHEDULER_WAIT = 0.8
 #: Set when this interpreter's scheduler has answered the round's call (see the module).
 _SCHEDULED = threading.Event()
 #: Whether this interpreter runs the entry's scheduler (else no executor waits for it).
@@ -208,6 +214,13 @@ class TaskBook:
         width = max(map(len, rows), default=0) or 1
         return np.array([row + [-1] * (width - len(row)) for row in rows], dtype=np.int64)
 
+    def opened(self, pool: Any, schedule: np.ndarray) -> np.ndarray:
+        """``(N,)`` bool: whether an errand of each robot's task in ``schedule`` (task ids,
+        -1 none) is done (the kit's ``idx_next_loc`` past 0)."""
+        self.update(pool)
+        return np.array([task_id in self._stops and pool[task_id].idx_next_loc > 0
+                         for task_id in schedule.tolist()], dtype=bool)  # fmt: skip
+
     def open_tasks(self, pool: Any, schedule: np.ndarray) -> OpenTasks:
         """The pool as :class:`~warehouse_phys.lorr.startkit.scheduler.OpenTasks`: a task's
         robot is the one ``schedule`` gives it (the kit's ``agent_assigned``)."""
@@ -328,9 +341,12 @@ class SchedulerAdapter:
         if walk is None or len(walk) != n:
             walk = queue_cells(env, self._ahead)
         _WALKS[id(env)] = walk  # the planner's too
-        finishing = (current >= 0) & (goals_after_queue(walk, book.stops_of(pool, current)) < 0)
+        remaining = book.stops_of(pool, current)
+        after = goals_after_queue(walk, remaining)
+        busy = current >= 0
+        unopened = busy & ~book.opened(pool, current) & (after == remaining[:, 0])
         return self.core.schedule(current, cells, book.open_tasks(pool, current),
-                                  finishing).tolist()  # fmt: skip
+                                  busy & (after < 0), unopened).tolist()  # fmt: skip
 
 
 def plan_table(actions: Any, n: int) -> np.ndarray:
@@ -413,10 +429,10 @@ class ExecutorAdapter:
         self._settle()
         if self._round and _SCHEDULER.is_set():
             self._round = False
-            if not _SCHEDULED.wait(exec_time_limit * 0.8 / 1000):  # [ms] -> [s]
+            if not _SCHEDULED.wait(exec_time_limit * SCHEDULER_WAIT / 1000):  # [ms] -> [s]
                 self.scheduler_waits += 1
                 print("warehouse_phys executor: went on without the scheduler's answer "
-                      f"({exec_time_limit * 0.8:.0f} ms)", file=sys.stderr)  # fmt: skip
+                      f"({exec_time_limit * SCHEDULER_WAIT:.0f} ms)", file=sys.stderr)  # fmt: skip
         self._go = self.core.next_command()
         return np.where(self._go, _GO, _STOP).tolist()
 

@@ -4,10 +4,17 @@ the start kit predicts the robots will stand, by the package's planner.
 The start kit asks its planner, every ``planCommTimeLimit``, for actions that start where
 each robot stands once its staged actions are done (its *predicted state*), and runs them
 after those. :class:`EntryPlanner` plans ``steps`` joint steps from there with
-:class:`~warehouse_phys.planners.guidance.GuidedPIBT` (``"guided"``, the package's best
-planner for turning robots: PIBT over cells and headings following traffic-priced guide
-paths, with one-way lanes; the ``guided`` of :mod:`warehouse_phys.rl.fleet_planners`) or
-plain :class:`~warehouse_phys.planners.pibt.PIBT` (``"pibt"``), each step from the last,
+one of :data:`ENTRY_PLANNERS`, each step from the last:
+
+- ``"guided-ops-repair"`` (the entry's): :class:`~warehouse_phys.planners.guidance.GuidedPIBT`
+  over operations of :data:`ENTRY_OPERATIONS` actions, each step's plan improved by the
+  windowed repair (:class:`~warehouse_phys.planners.repair.WindowRepair`,
+  :data:`ENTRY_REPAIR`), as the ``guided-ops-repair`` of
+  :mod:`warehouse_phys.rl.fleet_planners` but without its lanes over the whole floor;
+- ``"guided"``: guided PIBT, one action a step (PIBT over cells and headings following
+  traffic-priced guide paths, with one-way lanes in narrow corridors);
+- ``"pibt"``: plain :class:`~warehouse_phys.planners.pibt.PIBT`;
+
 and holds every rotation (the kit's square robots cannot rotate:
 :func:`~warehouse_phys.execution.windows.without_rotations`). Actions are the kit's
 numbers, which are :class:`~warehouse_phys.world.headings.TurnAction`'s: forward 0,
@@ -36,24 +43,43 @@ from warehouse_phys.execution.windows import REPLANS, rotation_heads, without_ro
 from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.guidance_config import GuidanceConfig
 from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES, TurnAction, turned
 from warehouse_phys.world.traffic import neighbour_table
 
-#: The planners an entry may use, by name (the best first).
-ENTRY_PLANNERS = ("guided", "pibt")
+#: The planners an entry may use, by name (the best first; the module).
+ENTRY_PLANNERS = ("guided-ops-repair", "guided", "pibt")
+#: Actions in an operation of ``"guided-ops-repair"`` (its repair's window) [steps].
+ENTRY_OPERATIONS = 3
+#: ``"guided-ops-repair"``'s repair (:class:`~warehouse_phys.planners.repair.WindowRepair`'s
+#: arguments). By the kit's rules (:mod:`~warehouse_phys.lorr.startkit.system`, 600 ticks,
+#: delay seeds 0-11, the scheduler pairing again) random-example_400 finished 532.8 tasks
+#: on average against guided PIBT's 522.3, and maze-example_40 86.5 against 82.3 (seeds
+#: 0-5); 16 robots a neighbourhood gave 533.6, within the seeds' spread, and the lanes
+#: over the whole floor of :mod:`~warehouse_phys.rl.fleet_planners` 501.0 (they suit
+#: warehouse aisles, not a random floor). In the kit the plan's time bound bounds the
+#: repair too.
+ENTRY_REPAIR: dict[str, int] = {"neighbourhood": 8, "iterations": 2000}
+#: Bounded plans in a row whose work besides the guide-path searches and the repair took
+#: longer than the whole bound before ``"guided-ops-repair"`` drops its operations and its
+#: repair and plans one action a step (as ``"guided"``): at 10,000 robots on this 2-core
+#: machine its operations alone take about 0.5 s a step, and a round of the kit's 1 s
+#: holds three or four steps; at 2,500 robots the whole plan takes 0.2-0.6 s unbounded.
+OVERRUNS_TO_LIGHTEN = 2
 #: Most steps a window may hold.
 MAX_STEPS = 64
-#: The guided planner's guidance in the entry: the package's defaults but lighter prices
-#: on traffic, for every map: a move into a cell that other guide paths leave costs 0.1
+#: The guided planners' guidance in the entry: the package's defaults but lighter prices
+#: on traffic, for every map: a move into a cell that other guide paths leave costs 0.25
 #: a path (``vertex_weight``, 0.5 by default), a turn there 0.25 (``turn_traffic_weight``,
-#: 0.5). By the kit's rules (:mod:`~warehouse_phys.lorr.startkit.system`, 600 ticks,
-#: delay seeds 0-5), the weight 0.1 gave 505.7 tasks against 497.2 on random-example_400
-#: and 79.8 against 76.3 on maze-example_40 (0.25: 504.8 and 78.0; 0: 488.7 and 76.2),
-#: and its guide-path searches, whose moves cost less above the Manhattan heuristic,
-#: expand about half the cells; the turns' 0.25 then 508.1 against 502.2 and 80.2 against
-#: 80.6 (seeds 6-13).
-ENTRY_GUIDANCE = GuidanceConfig(vertex_weight=0.1, turn_traffic_weight=0.25)
+#: 0.5). By the kit's rules (:mod:`~warehouse_phys.lorr.startkit.system`, 600 ticks),
+#: over delay seeds 0-11, ``"guided-ops-repair"`` with the scheduler pairing again
+#: finished 537.4 tasks on random-example_400 with the weight 0.25, against 528.3 (0.5),
+#: 532.8 (0.1) and 529.6 (0.05), and 86.5 on maze-example_40 against 86.2 (0.5) and 87.3
+#: (0.1); the turns' 0.5 gave 529.5 (with 0.1). One-step guided PIBT with the first
+#: scheduler (delay seeds 0-5): 504.8 (0.25), 505.7 (0.1), 497.2 (0.5), 488.7 (0);
+#: lighter weights also halve the cells the guide-path searches expand.
+ENTRY_GUIDANCE = GuidanceConfig(vertex_weight=0.25, turn_traffic_weight=0.25)
 #: Plans in a row a robot with an errand elsewhere may start on one cell before it is
 #: taken for stuck (about :data:`STUCK_PLANS` rounds of the kit's).
 STUCK_PLANS = 5
@@ -68,6 +94,10 @@ def entry_planner(name: str, grid: WarehouseGrid, seed: int = 0) -> GuidedPIBT |
     Raises:
         ValueError: for another name.
     """
+    if name == "guided-ops-repair":
+        return GuidedPIBT(grid, seed=seed, moves="rotate", config=ENTRY_GUIDANCE,
+                          operations=ENTRY_OPERATIONS,
+                          repair=WindowRepair(**ENTRY_REPAIR, seed=seed))  # fmt: skip
     if name == "guided":
         return GuidedPIBT(grid, seed=seed, moves="rotate", config=ENTRY_GUIDANCE)
     if name == "pibt":
@@ -90,7 +120,12 @@ class EntryPlanner:
     """
 
     def __init__(
-        self, grid: WarehouseGrid, *, steps: int, planner: str = "guided", seed: int = 0
+        self,
+        grid: WarehouseGrid,
+        *,
+        steps: int,
+        planner: str = ENTRY_PLANNERS[0],
+        seed: int = 0,
     ) -> None:
         self.grid = grid
         self.steps = check_whole("steps", steps, 1, MAX_STEPS)
@@ -107,6 +142,9 @@ class EntryPlanner:
         self._detour = np.zeros(0, dtype=np.int64)
         self._left = np.zeros(0, dtype=np.int64)
         self._other = 0.0  # a step's time besides its guide-path searches [s]
+        self._overruns = 0
+        #: Whether the planner dropped its operations and repair to keep to its bound.
+        self.lightened = False
 
     def plan(
         self, cells: np.ndarray, headings: np.ndarray, goals: np.ndarray,
@@ -122,6 +160,10 @@ class EntryPlanner:
         real time): robots left without a guide path step by PIBT's distances, and the
         plan may differ between runs. ``None`` (default): no bound, the same plan for the
         same inputs.
+
+        ``"guided-ops-repair"`` planning :data:`OVERRUNS_TO_LIGHTEN` bounded plans in a row
+        whose work besides its searches and repair alone takes longer than ``seconds``
+        plans one action a step from then on (:attr:`lightened`).
 
         A robot that starts :data:`STUCK_PLANS` plans in a row on the same cell, an errand
         elsewhere, is stuck (PIBT for turning robots, which may not rotate here, locks a
@@ -140,13 +182,27 @@ class EntryPlanner:
         goals = self._detoured(here, np.asarray(goals, dtype=np.int64))
         steps = self.steps if steps is None else check_whole("steps", steps, 0, MAX_STEPS)
         actions = np.empty((len(here), steps), dtype=np.int64)
+        fixed = 0.0  # the plan's work besides its searches and repair [s]
         with collector_paused():
             for s in range(steps):
                 step, kept = self._step(here, facing, goals, self._deadline(end, steps - s))
                 actions[:, s] = step
                 facing = turned(facing, step)
                 here = kept
+                fixed += self._other
+        if seconds is not None:
+            self._lighten_after(fixed > seconds)
         return actions
+
+    def _lighten_after(self, overran: bool) -> None:
+        """Count a bounded plan that ``overran`` its bound without its searches and repair;
+        after :data:`OVERRUNS_TO_LIGHTEN` in a row, drop the operations and the repair."""
+        self._overruns = self._overruns + 1 if overran else 0
+        planner = self.planner
+        if (self._overruns >= OVERRUNS_TO_LIGHTEN and isinstance(planner, GuidedPIBT)
+                and planner.operations is not None):  # fmt: skip
+            planner.drop_operations_and_repair()
+            self.lightened = True
 
     def _deadline(self, end: float | None, steps_left: int) -> float | None:
         """When this step's guide-path searches stop for the plan to end at ``end``: an
@@ -205,13 +261,17 @@ class EntryPlanner:
         (:func:`~warehouse_phys.execution.windows.without_rotations`)."""
         cols = self.grid.cols
         aims = np.where(goals >= 0, goals, here)
+        other = 0.0  # what the step spends besides its searches and repair, every attempt [s]
         for attempt in range(REPLANS + 1):
             begun = time.perf_counter()
             bound = {} if deadline is None else {"deadline": deadline}
             step = self.planner.plan(rows_cols(here, cols), rows_cols(aims, cols),
                                      headings=facing, **bound)  # fmt: skip
-            if deadline is not None:  # what the step spends besides its searches [s]
-                self._other = time.perf_counter() - begun - self.planner.guidance.search_seconds
+            if deadline is not None:
+                repair = self.planner.repair  # (the repair takes what time is left)
+                other += (time.perf_counter() - begun - self.planner.guidance.search_seconds
+                          - (0.0 if repair is None else repair.stats.seconds))  # fmt: skip
+                self._other = other
             forward = step == TurnAction.FORWARD
             wanted = np.where(forward, self.ahead[here, facing], here)
             heads = rotation_heads(here, wanted, self._occupant)

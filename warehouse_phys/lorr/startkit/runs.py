@@ -29,6 +29,7 @@ from typing import Any
 from warehouse_phys.lorr.output_2026 import TIMEOUT, read_output
 from warehouse_phys.lorr.startkit.build import KitBuild
 from warehouse_phys.lorr.startkit.install import install
+from warehouse_phys.lorr.startkit.planner import ENTRY_PLANNERS
 
 #: The three runs of ``python -m warehouse_phys.startkit run``.
 RUNS = ("ours", "default", "simulate")
@@ -168,7 +169,7 @@ def run_simulate(
     ticks: int,
     *,
     delays_from: str | os.PathLike[str] | None,
-    planner: str = "guided",
+    planner: str = ENTRY_PLANNERS[0],
     scheduler: str | None = None,
     timeout: float | None = None,
 ) -> RunResult:

@@ -59,7 +59,12 @@ from warehouse_phys.lorr.output_2026 import (
     SegmentedPaths,
 )
 from warehouse_phys.lorr.startkit.executor import EntryExecutor, plan_steps, window_steps
-from warehouse_phys.lorr.startkit.planner import EntryPlanner, goals_after_queue, with_held
+from warehouse_phys.lorr.startkit.planner import (
+    ENTRY_PLANNERS,
+    EntryPlanner,
+    goals_after_queue,
+    with_held,
+)
 from warehouse_phys.lorr.startkit.scheduler import EntryScheduler
 from warehouse_phys.lorr.startkit.tasks import KitTasks
 
@@ -111,7 +116,7 @@ class KitSystem:
         self,
         instance: LorrInstance,
         *,
-        planner: str = "guided",
+        planner: str = ENTRY_PLANNERS[0],
         scheduler: str = "assignment",
         ticks_per_move: int | None = None,
         delays: DelayConfig | DelayReplay | None = None,
@@ -254,14 +259,20 @@ class KitSystem:
     # ------------------------------------------------------------------ parts
     def _compute(self, tick: int | None) -> tuple[np.ndarray, np.ndarray]:
         """The entry's computation at a round (``tick``; ``None`` before tick 0): the
-        scheduler's proposal, then the planner's plan towards the proposed tasks (and the
+        scheduler's proposal (robots on their way to a task not opened paired again),
+        then the planner's plan towards the proposed tasks (and the
         tasks held for robots about to be free), from the predicted states, of
         :func:`~warehouse_phys.lorr.startkit.executor.window_steps` steps."""
         cells, headings = self.executor.predicted()
         tasks = self.tasks
         queue = self.executor.executor.queue_cells()
-        finishing = (tasks.tasks >= 0) & (goals_after_queue(queue, tasks.remaining_stops()) < 0)
-        proposal = self.scheduler.schedule(tasks.tasks, cells, tasks.open_tasks(), finishing)
+        remaining = tasks.remaining_stops()
+        after = goals_after_queue(queue, remaining)
+        busy = tasks.tasks >= 0
+        finishing = busy & (after < 0)
+        unopened = busy & (tasks.progress == 0) & (after == remaining[:, 0])
+        proposal = self.scheduler.schedule(tasks.tasks, cells, tasks.open_tasks(), finishing,
+                                           unopened)  # fmt: skip
         stops = _proposed_stops(tasks, proposal, self.scheduler.held)
         goals = goals_after_queue(queue, stops)
         steps = window_steps(tick, self.round_ticks, self.ticks_per_move)
