@@ -196,3 +196,15 @@ def test_what_ticks_do_not_model_is_refused_in_one_line(tmp_path, capsys, where,
     assert message in error
     assert error.count("\n") == 1
     assert not (tmp_path / "run").exists()
+
+
+def test_every_planner_runs_on_ticks_and_one_of_turning_robots_needs_them(tmp_path, capsys):
+    floor = ["--layout", "aisles", "--robots", "4", "--ticks-per-move", "3"]
+    summary, _ = run(tmp_path, "ops", *floor, "--moves", "rotate", "--steps", "60",
+                     "--policy", "guided-ops")  # fmt: skip
+    assert summary["policy"] == "guided-ops"
+    assert main([*floor, "--moves", "grid", "--policy", "guided-ops", "--out",
+                 str(tmp_path / "x"), "--quiet"]) == 2  # fmt: skip
+    assert "--policy guided-ops plans turning robots only: give --moves rotate" in (
+        capsys.readouterr().err
+    )

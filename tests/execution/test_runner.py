@@ -7,6 +7,7 @@ import pytest
 from warehouse_phys.execution.async_grid import AsyncGrid, gap_conflicts, swap_conflicts
 from warehouse_phys.execution.delays import DelayConfig
 from warehouse_phys.execution.runner import Execution
+from warehouse_phys.planners.named import PLANNERS, TURNING_ONLY
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.traffic import neighbour_table
@@ -94,16 +95,21 @@ def test_bad_arguments_are_refused_in_one_line():
         run.tick(starts, np.array([1, 0]))
 
 
-@pytest.mark.parametrize("turning", [False, True])
-def test_the_guided_planner_runs_on_ticks_as_safely_and_bit_identically(turning):
-    """``planner="guided"``: its windows have no requests, so robots a delay holds are held
-    after its plan (:func:`held_back`); every tick still keeps the gap."""
+GUIDED_CASES = [(name, turning) for name in PLANNERS if name != "pibt"
+                for turning in ([True] if name in TURNING_ONLY else [False, True])]  # fmt: skip
+
+
+@pytest.mark.parametrize(("name", "turning"), GUIDED_CASES)
+def test_every_guided_planner_runs_on_ticks_as_safely_and_bit_identically(name, turning):
+    """Every planner by name but plain PIBT (whose requests the tests above take) is a
+    guided one: its windows have no requests, so robots a delay holds are held after its
+    plan (:func:`held_back`); every tick still keeps the gap."""
     starts, goals = fleet(12, 5)
     headings = np.zeros(12, dtype=np.int64) if turning else None
 
     def trace():
         run = Execution(FLOOR, starts, ticks_per_move=3, delays=delays(0.05), seed=2,
-                        planner="guided", headings=headings)  # fmt: skip
+                        planner=name, headings=headings)  # fmt: skip
         world = AsyncGrid(FLOOR, run.executor.left, run.executor.ticks_needed, headings)
         cells = []
         for _ in range(120):

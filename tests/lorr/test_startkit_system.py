@@ -15,13 +15,14 @@ from tests.lorr.tiny_kit_instance import tiny_instance
 from warehouse_phys.execution.delay_replay import DelayReplay
 from warehouse_phys.lorr.output_2026 import read_output, walk, write_output
 from warehouse_phys.lorr.startkit.system import KitSystem
+from warehouse_phys.planners.named import PLANNERS
 
 GOLDEN = Path(__file__).with_name("data") / "kit_tiny_output.json"
 
 
-@settings(max_examples=6, deadline=None)
+@settings(max_examples=8, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 0.05, 0.2]), st.sampled_from([1, 3]),
-       st.sampled_from(["guided-ops-repair", "guided", "pibt"]))  # fmt: skip
+       st.sampled_from(PLANNERS))  # fmt: skip
 def test_no_square_ever_collides_and_the_output_walks_back(tmp_path_factory, seed, p, counter,
                                                           planner):  # fmt: skip
     base = tiny_instance()

@@ -156,8 +156,8 @@ class AsyncFleetEnv(ParallelEnv):
       draws them: every episode has the same delays unless ``reset(options={"delays":
       ...})`` gives another configuration.
     - ``plan_every`` (ticks, default ``ticks_per_move``), ``window`` (steps, default 1),
-      ``planner`` (``"pibt"``, default, or ``"guided"``: the windows' planner,
-      :data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`),
+      ``planner`` (``"pibt"``, default, ``"guided"`` or any other planner by name: the
+      windows' planner, :data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`),
       ``around_delays`` (``"wait"``, ``"reroute"``, ``"off"``: how the windows treat
       delayed robots, :class:`~warehouse_phys.execution.runner.Execution`),
       ``min_gap`` (cells; default the executor's, with physics what the bodies need;

@@ -21,32 +21,30 @@ import numpy as np
 
 from warehouse_phys.execution.plan_checks import NO_ROBOT, and_along, checked_cells, rows_cols
 from warehouse_phys.planners.guidance import GuidedPIBT
-from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.named import PLANNERS, named_planner
 from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES, TurnAction, turned
 from warehouse_phys.world.traffic import WAIT, neighbour_table
 
 #: Times :func:`pibt_window` plans a step again to take rotations out of it.
 REPLANS = 3
-#: The planners of the windows by name (:func:`window_planner`): PIBT, and PIBT
-#: following traffic-priced guide paths (the ``guided`` of
-#: :mod:`warehouse_phys.rl.fleet_planners`, its default guidance).
-WINDOW_PLANNERS = ("pibt", "guided")
+#: The planners of the windows by name (:func:`window_planner`): every planner of
+#: :mod:`warehouse_phys.planners.named` (those of its ``TURNING_ONLY`` for turning robots).
+WINDOW_PLANNERS = PLANNERS
 
 
 def window_planner(
-    name: str, grid: object, *, moves: str = "grid", seed: int = 0
+    name: str, grid: WarehouseGrid, *, moves: str = "grid", seed: int = 0
 ) -> PIBT | GuidedPIBT:
-    """The planner of :data:`WINDOW_PLANNERS` called ``name`` for ``grid`` and ``moves``.
+    """The planner of :data:`WINDOW_PLANNERS` called ``name`` for ``grid`` and ``moves``
+    (:func:`~warehouse_phys.planners.named.named_planner`).
 
     Raises:
-        ValueError: for another name.
+        ValueError: for another name, or a planner of turning robots only with ``moves``
+            other than ``"rotate"``.
     """
-    if name == "pibt":
-        return PIBT(grid, moves=moves, seed=seed)
-    if name == "guided":
-        return GuidedPIBT(grid, moves=moves, seed=seed, config=GuidanceConfig())
-    raise ValueError(f"unknown planner {name!r}; known: {', '.join(WINDOW_PLANNERS)}")
+    return named_planner(name, grid, moves=moves, seed=seed)
 
 
 def pibt_window(

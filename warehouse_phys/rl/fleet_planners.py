@@ -1,4 +1,5 @@
-"""Fleet policies (``FleetPolicy``) of the planners, by name.
+"""Fleet policies (``FleetPolicy``) of the planners, by name (the names and what each plans
+with: :mod:`warehouse_phys.planners.named`).
 
 :func:`pibt_policy` plans with :class:`~warehouse_phys.planners.pibt.PIBT`.
 :func:`guided_pibt_policy` plans with :class:`~warehouse_phys.planners.guidance.GuidedPIBT`:
@@ -12,54 +13,30 @@ and command lines.
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
 
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
+from warehouse_phys.planners import named
 from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.named import planner_setup
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.rl.fleet_evaluation import FleetPolicy
 
-#: The guidance of each named planner: following congestion-priced guide paths
-#: (``guided``), the prices alone as a tie-break of PIBT's distances (``guided-costs``),
-#: following shortest guide paths (``guided-paths``).
-PLANNER_GUIDANCE: dict[str, GuidanceConfig] = {
-    "guided": GuidanceConfig(),
-    "guided-costs": GuidanceConfig(follow=False),
-    "guided-paths": GuidanceConfig(vertex_weight=0.0, contraflow_weight=0.0),
-}
-#: Planners over multi-action operations of 3 actions (turning robots only:
-#: :class:`~warehouse_phys.planners.operations.OperationPIBT`), by name, and their guidance:
-#: the ``guided`` planner's (``guided-ops``), or none, distances alone (``pibt-ops``: no
-#: guide path is searched).
-PLANNER_OPERATIONS: dict[str, GuidanceConfig] = {
-    "guided-ops": GuidanceConfig(),
-    "pibt-ops": GuidanceConfig(max_searches=0),
-}
-#: Actions in an operation of the planners of :data:`PLANNER_OPERATIONS`.
-OPERATION_DEPTH = 3
-#: Planners whose plans a windowed repair improves each step (turning robots only:
-#: :class:`~warehouse_phys.planners.repair.WindowRepair`), by name: the planner they
-#: repair, whose guidance they take with :data:`REPAIR_GUIDANCE` on top.
-PLANNER_REPAIRS: dict[str, str] = {"guided-repair": "guided", "guided-ops-repair": "guided-ops"}
-#: The repairing planners' guidance beyond their base's: lanes over the whole floor. Over
-#: the first 300 steps with turning robots (seed 0) they added 1.0 % to the repair's
-#: errands on MR23-I-10 and 5.1 % to its tasks on 2024 WAREHOUSE (the
-#: documentation's LoRR page, ``docs/lorr.md``); not measured on the Kiva floor.
-REPAIR_GUIDANCE: dict[str, Any] = {"floor_lane_paths": 2}
-#: The repair's settings (:class:`~warehouse_phys.planners.repair.WindowRepair`'s arguments).
-REPAIR: dict[str, Any] = {"neighbourhood": 8, "iterations": 2000}
-#: Fields a repairing planner's ``guidance`` may also set: the repair's.
-REPAIR_FIELDS = {"neighbourhood": "neighbourhood", "iterations": "iterations",
-                 "repair_time_limit": "time_limit"}  # fmt: skip
-#: Every name :func:`planner_policy` knows.
-PLANNERS = ("pibt", *PLANNER_GUIDANCE, *PLANNER_OPERATIONS, *PLANNER_REPAIRS)
-#: The names of :data:`PLANNERS` that plan turning robots only (``moves="rotate"``).
-TURNING_ONLY = frozenset((*PLANNER_OPERATIONS, *PLANNER_REPAIRS))
+#: The planners' names and settings, kept in :mod:`warehouse_phys.planners.named` and
+#: served here too, where the fleet policies first took them.
+PLANNER_GUIDANCE = named.PLANNER_GUIDANCE
+PLANNER_OPERATIONS = named.PLANNER_OPERATIONS
+OPERATION_DEPTH = named.OPERATION_DEPTH
+PLANNER_REPAIRS = named.PLANNER_REPAIRS
+REPAIR_GUIDANCE = named.REPAIR_GUIDANCE
+REPAIR = named.REPAIR
+REPAIR_FIELDS = named.REPAIR_FIELDS
+PLANNERS = named.PLANNERS
+TURNING_ONLY = named.TURNING_ONLY
 
 
 def pibt_policy(seed: int = 0) -> FleetPolicy:
@@ -174,21 +151,8 @@ def planner_policy(name: str, seed: int = 0, **guidance: Any) -> FleetPolicy:
     Raises:
         ValueError: for an unknown name, or guidance given to plain PIBT.
     """
-    if name == "pibt":
-        if guidance:
-            raise ValueError(f"plain PIBT takes no guidance, got {sorted(guidance)}")
+    setup = planner_setup(name, **guidance)
+    if setup.config is None:
         return pibt_policy(seed=seed)
-    if name not in PLANNERS:
-        raise ValueError(f"unknown planner {name!r}; known: {list(PLANNERS)}")
-    repair = dict(REPAIR) if name in PLANNER_REPAIRS else None
-    if repair is not None:
-        repair |= {REPAIR_FIELDS[key]: guidance.pop(key) for key in list(guidance)
-                   if key in REPAIR_FIELDS}  # fmt: skip
-    base = PLANNER_REPAIRS.get(name, name)
-    config = PLANNER_GUIDANCE.get(base) or PLANNER_OPERATIONS[base]
-    if repair is not None:
-        config = dataclasses.replace(config, **REPAIR_GUIDANCE)
-    if guidance:
-        config = dataclasses.replace(config, **guidance)
-    depth = OPERATION_DEPTH if base in PLANNER_OPERATIONS else 0
-    return guided_pibt_policy(seed=seed, config=config, operations=depth, repair=repair)
+    return guided_pibt_policy(seed=seed, config=setup.config, operations=setup.operations,
+                              repair=setup.repair)  # fmt: skip

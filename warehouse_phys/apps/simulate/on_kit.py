@@ -7,7 +7,8 @@ follows the instance: ``rotate``) and without ``--physics`` runs
 :class:`~warehouse_phys.lorr.startkit.system.KitSystem`: the kit's loop (a plan and a
 schedule every round of ``planCommTimeLimit``, made from where the robots will stand, the
 executor's GO or STOP every tick before the tick's delays) with the entry's planner
-(``--policy``: ``pibt`` or ``guided``), scheduler (``--scheduler``; by default the
+(``--policy``: the entry's ``guided-ops-repair``, ``guided`` or ``pibt``, set as in the
+entry, or any other planner by name), scheduler (``--scheduler``; by default the
 entry's, the minimum-cost assignment on true distances) and executor, robots
 as squares of side ``agentSize`` (the kit's swept-square rule, checked every tick). It
 writes the kit's 2026 output file (:mod:`warehouse_phys.lorr.output_2026`) as
@@ -39,8 +40,8 @@ from warehouse_phys.execution.delay_replay import DelayReplay
 from warehouse_phys.execution.delays import DelayConfig
 from warehouse_phys.lorr.instances import LorrInstance
 from warehouse_phys.lorr.output_2026 import delay_intervals, write_output
-from warehouse_phys.lorr.startkit.planner import ENTRY_PLANNERS
 from warehouse_phys.lorr.startkit.system import KitSystem
+from warehouse_phys.planners.named import PLANNERS
 
 if TYPE_CHECKING:
     from warehouse_phys.lorr.output import RunRecord
@@ -74,9 +75,9 @@ def kit_system(
             a ``--delays-from`` file that is not a kit run's output for this instance and
             these ticks.
     """
-    if policy not in ENTRY_PLANNERS:
-        raise UsageError(f"--policy {policy}: a run by the start kit's rules plans with "
-                         f"{' or '.join(ENTRY_PLANNERS)}")  # fmt: skip
+    if policy not in PLANNERS:
+        raise UsageError(f"--policy {policy}: a run by the start kit's rules plans with a "
+                         f"planner: {', '.join(PLANNERS)}")  # fmt: skip
     if instance.year < 2024:
         raise UsageError(f"{instance.name} is a 2023 instance: the start kit's rules schedule "
                          "tasks (2024 and later); use --moves grid or a lock-step run")  # fmt: skip

@@ -55,14 +55,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from warehouse_phys.apps.cli import UsageError, bounded_int
-from warehouse_phys.apps.simulate.on_kit import kit_rules
 from warehouse_phys.apps.simulate.results import DEFAULT_STEPS, INSTANCE_STEPS, Simulation
 from warehouse_phys.execution.delays import MAX_SEED, DelayConfig
 from warehouse_phys.execution.ticks import LORR_TICKS_PER_MOVE, MAX_TICKS_PER_MOVE
 from warehouse_phys.execution.windows import WINDOW_PLANNERS
 from warehouse_phys.lorr.instances import LorrInstance
 from warehouse_phys.lorr.output import RunRecord, actual_actions
-from warehouse_phys.lorr.startkit.planner import ENTRY_PLANNERS
+from warehouse_phys.planners.named import TURNING_ONLY
 
 if TYPE_CHECKING:
     from warehouse_phys.envs.async_fleet import AsyncFleetEnv
@@ -135,10 +134,9 @@ def tick_options(args: argparse.Namespace, instance: LorrInstance | None) -> Tic
 
     Raises:
         UsageError: one line, for ticks with a policy that is not a planner of the
-            windows (:data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`: ``pibt``,
-            ``guided``; by the start kit's rules the entry's,
-            :data:`~warehouse_phys.lorr.startkit.planner.ENTRY_PLANNERS`) or a one-shot
-            ``--on-delivery``, or ``--delay-seed`` with no delays.
+            windows (:data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`, every
+            planner by name; those of turning robots only with ``--moves rotate``) or a
+            one-shot ``--on-delivery``, or ``--delay-seed`` with no delays.
     """
     counter = None if instance is None else instance.agent_counter
     config = None if instance is None else instance.delay
@@ -151,13 +149,14 @@ def tick_options(args: argparse.Namespace, instance: LorrInstance | None) -> Tic
     named = [key for key, value in (("agentCounter", counter), ("delayConfig", config))
              if value is not None]  # fmt: skip
     why = f"{' and '.join(flags)} given" if flags else f"{instance.name} has {' and '.join(named)}"
-    planners = (ENTRY_PLANNERS if kit_rules(instance, True, args.moves, args.physics)
-                else WINDOW_PLANNERS)  # fmt: skip
-    if args.policy not in planners:
+    if args.policy not in WINDOW_PLANNERS:
         raise UsageError(
-            f"--policy {args.policy}: a run on ticks ({why}) executes the plans of "
-            f"{' or '.join(planners)}; other policies run in lock step"
+            f"--policy {args.policy}: a run on ticks ({why}) executes the plans of a "
+            f"planner ({', '.join(WINDOW_PLANNERS)}); other policies run in lock step"
         )
+    if args.policy in TURNING_ONLY and args.moves != "rotate":
+        raise UsageError(f"--policy {args.policy} plans turning robots only: give --moves "
+                         "rotate")  # fmt: skip
     if args.on_delivery not in (None, "new_package"):
         raise UsageError(f"--on-delivery {args.on_delivery}: a run on ticks ({why}) is "
                          "lifelong (new_package)")  # fmt: skip

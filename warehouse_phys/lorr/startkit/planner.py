@@ -42,6 +42,7 @@ from warehouse_phys.execution.ticks import check_whole
 from warehouse_phys.execution.windows import REPLANS, rotation_heads, without_rotations
 from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.named import named_planner
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.world.grid import WarehouseGrid
@@ -88,8 +89,10 @@ DETOUR_PLANS, DETOUR_RADIUS = 2, 4
 
 
 def entry_planner(name: str, grid: WarehouseGrid, seed: int = 0) -> GuidedPIBT | PIBT:
-    """The planner called ``name`` (one of :data:`ENTRY_PLANNERS`) for turning robots on
-    ``grid``, seeded.
+    """The planner called ``name`` for turning robots on ``grid``, seeded: one of
+    :data:`ENTRY_PLANNERS`, set for the entry (the module), or any other of
+    :data:`~warehouse_phys.planners.named.PLANNERS` as
+    :func:`~warehouse_phys.planners.named.named_planner` makes it.
 
     Raises:
         ValueError: for another name.
@@ -102,7 +105,7 @@ def entry_planner(name: str, grid: WarehouseGrid, seed: int = 0) -> GuidedPIBT |
         return GuidedPIBT(grid, seed=seed, moves="rotate", config=ENTRY_GUIDANCE)
     if name == "pibt":
         return PIBT(grid, seed=seed, moves="rotate")
-    raise ValueError(f"unknown planner {name!r}; known: {', '.join(ENTRY_PLANNERS)}")
+    return named_planner(name, grid, moves="rotate", seed=seed)
 
 
 class EntryPlanner:

@@ -93,7 +93,8 @@ class KitSystem:
 
     Args:
         instance: A 2024 or later instance (a scheduler hands its tasks out).
-        planner: The entry's planner (:data:`~warehouse_phys.lorr.startkit.planner.ENTRY_PLANNERS`).
+        planner: The entry's planner by name
+            (:func:`~warehouse_phys.lorr.startkit.planner.entry_planner`).
         scheduler: The entry's scheduler (a name of
             :data:`~warehouse_phys.lorr.startkit.scheduler.ENTRY_SCHEDULERS`).
         ticks_per_move: Ticks a forward move or a quarter turn takes (default: the

@@ -1,0 +1,52 @@
+"""The planners by name: every name makes its planner, with its operations and repair, for
+the robots it plans; other names and robots are refused by name."""
+
+import pytest
+
+from warehouse_phys.planners.guidance import GuidedPIBT
+from warehouse_phys.planners.named import (
+    OPERATION_DEPTH,
+    PLANNERS,
+    TURNING_ONLY,
+    named_planner,
+    planner_setup,
+)
+from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.world.grid import WarehouseGrid
+
+FLOOR = WarehouseGrid.from_layout(["....", ".#..", "...."])
+
+
+@pytest.mark.parametrize("name", PLANNERS)
+def test_every_name_makes_its_planner(name):
+    planner = named_planner(name, FLOOR, moves="rotate", seed=3)
+    if name == "pibt":
+        assert type(planner) is PIBT
+        return
+    assert isinstance(planner, GuidedPIBT)
+    assert (planner.operations is not None) == name.endswith(("-ops", "-ops-repair"))
+    assert (planner.repair is not None) == name.endswith("-repair")
+    if planner.operations is not None:
+        assert planner.operations.depth == OPERATION_DEPTH
+
+
+def test_turning_only_planners_refuse_four_direction_robots():
+    for name in TURNING_ONLY:
+        with pytest.raises(ValueError, match=f"planner '{name}' plans turning robots only"):
+            named_planner(name, FLOOR, moves="grid")
+    assert isinstance(named_planner("guided", FLOOR, moves="grid"), GuidedPIBT)
+
+
+def test_guidance_and_repair_settings_reach_the_planner():
+    setup = planner_setup("guided-ops-repair", time_limit=0.5, neighbourhood=4)
+    assert setup.config.time_limit == 0.5
+    assert setup.repair["neighbourhood"] == 4
+    planner = named_planner("guided-repair", FLOOR, moves="rotate", iterations=7)
+    assert planner.repair.iterations == 7
+
+
+def test_unknown_names_and_guidance_for_plain_pibt_are_refused():
+    with pytest.raises(ValueError, match="unknown planner 'lacam'"):
+        named_planner("lacam", FLOOR)
+    with pytest.raises(ValueError, match="plain PIBT takes no guidance"):
+        planner_setup("pibt", time_limit=1.0)

@@ -1,0 +1,136 @@
+"""The package's planners by name: what each name plans with, and the planner itself.
+
+One table for every caller that takes a planner by name (the fleet policies of
+:mod:`warehouse_phys.rl.fleet_planners`, the windows of plans run on ticks in
+:mod:`warehouse_phys.execution.windows`, the start-kit entry's planners):
+
+- ``"pibt"``: plain :class:`~warehouse_phys.planners.pibt.PIBT`;
+- ``"guided"``: :class:`~warehouse_phys.planners.guidance.GuidedPIBT`, PIBT following
+  guide paths priced by the fleet's traffic; its ablations ``"guided-costs"`` (the
+  prices alone, a tie-break of PIBT's distances) and ``"guided-paths"`` (shortest guide
+  paths);
+- for turning robots only (:data:`TURNING_ONLY`): ``"guided-ops"`` and ``"pibt-ops"``,
+  planned over operations of :data:`OPERATION_DEPTH` actions with and without guidance,
+  and ``"guided-repair"`` and ``"guided-ops-repair"``, whose plans the windowed repair
+  (:class:`~warehouse_phys.planners.repair.WindowRepair`) improves each step.
+
+Like :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
+pygame.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, NamedTuple
+
+from warehouse_phys.planners.distances import DistanceMaps
+from warehouse_phys.planners.guidance import GuidedPIBT
+from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.planners.repair import WindowRepair
+from warehouse_phys.world.grid import WarehouseGrid
+
+#: The guidance of each named planner: following congestion-priced guide paths
+#: (``guided``), the prices alone as a tie-break of PIBT's distances (``guided-costs``),
+#: following shortest guide paths (``guided-paths``).
+PLANNER_GUIDANCE: dict[str, GuidanceConfig] = {
+    "guided": GuidanceConfig(),
+    "guided-costs": GuidanceConfig(follow=False),
+    "guided-paths": GuidanceConfig(vertex_weight=0.0, contraflow_weight=0.0),
+}
+#: Planners over multi-action operations of 3 actions (turning robots only:
+#: :class:`~warehouse_phys.planners.operations.OperationPIBT`), by name, and their guidance:
+#: the ``guided`` planner's (``guided-ops``), or none, distances alone (``pibt-ops``: no
+#: guide path is searched).
+PLANNER_OPERATIONS: dict[str, GuidanceConfig] = {
+    "guided-ops": GuidanceConfig(),
+    "pibt-ops": GuidanceConfig(max_searches=0),
+}
+#: Actions in an operation of the planners of :data:`PLANNER_OPERATIONS`.
+OPERATION_DEPTH = 3
+#: Planners whose plans a windowed repair improves each step (turning robots only:
+#: :class:`~warehouse_phys.planners.repair.WindowRepair`), by name: the planner they
+#: repair, whose guidance they take with :data:`REPAIR_GUIDANCE` on top.
+PLANNER_REPAIRS: dict[str, str] = {"guided-repair": "guided", "guided-ops-repair": "guided-ops"}
+#: The repairing planners' guidance beyond their base's: lanes over the whole floor. Over
+#: the first 300 steps with turning robots (seed 0) they added 1.0 % to the repair's
+#: errands on MR23-I-10 and 5.1 % to its tasks on 2024 WAREHOUSE (the
+#: documentation's LoRR page, ``docs/lorr.md``); not measured on the Kiva floor.
+REPAIR_GUIDANCE: dict[str, Any] = {"floor_lane_paths": 2}
+#: The repair's settings (:class:`~warehouse_phys.planners.repair.WindowRepair`'s arguments).
+REPAIR: dict[str, Any] = {"neighbourhood": 8, "iterations": 2000}
+#: Fields a repairing planner's ``guidance`` may also set: the repair's.
+REPAIR_FIELDS = {"neighbourhood": "neighbourhood", "iterations": "iterations",
+                 "repair_time_limit": "time_limit"}  # fmt: skip
+#: Every planner's name.
+PLANNERS = ("pibt", *PLANNER_GUIDANCE, *PLANNER_OPERATIONS, *PLANNER_REPAIRS)
+#: The names of :data:`PLANNERS` that plan turning robots only (``moves="rotate"``).
+TURNING_ONLY = frozenset((*PLANNER_OPERATIONS, *PLANNER_REPAIRS))
+
+
+class PlannerSetup(NamedTuple):
+    """What a planner's name stands for: its guidance (None: plain PIBT), its operations'
+    actions (0: one action a step) and its repair's arguments (None: no repair)."""
+
+    config: GuidanceConfig | None
+    operations: int
+    repair: dict[str, Any] | None
+
+
+def planner_setup(name: str, **guidance: Any) -> PlannerSetup:
+    """The setup of the planner ``name`` (one of :data:`PLANNERS`); ``guidance`` overrides
+    fields of a guided planner's :class:`~warehouse_phys.planners.guidance.GuidanceConfig`
+    (``time_limit=0.5``, say), and of a repairing planner's repair (:data:`REPAIR_FIELDS`:
+    ``neighbourhood``, ``iterations``, ``repair_time_limit``).
+
+    Raises:
+        ValueError: for an unknown name, or guidance given to plain PIBT.
+    """
+    if name == "pibt":
+        if guidance:
+            raise ValueError(f"plain PIBT takes no guidance, got {sorted(guidance)}")
+        return PlannerSetup(None, 0, None)
+    if name not in PLANNERS:
+        raise ValueError(f"unknown planner {name!r}; known: {', '.join(PLANNERS)}")
+    repair = dict(REPAIR) if name in PLANNER_REPAIRS else None
+    if repair is not None:
+        repair |= {REPAIR_FIELDS[key]: guidance.pop(key) for key in list(guidance)
+                   if key in REPAIR_FIELDS}  # fmt: skip
+    base = PLANNER_REPAIRS.get(name, name)
+    config = PLANNER_GUIDANCE.get(base) or PLANNER_OPERATIONS[base]
+    if repair is not None:
+        config = dataclasses.replace(config, **REPAIR_GUIDANCE)
+    if guidance:
+        config = dataclasses.replace(config, **guidance)
+    depth = OPERATION_DEPTH if base in PLANNER_OPERATIONS else 0
+    return PlannerSetup(config, depth, repair)
+
+
+def named_planner(
+    name: str,
+    grid: WarehouseGrid,
+    *,
+    moves: str = "grid",
+    seed: int = 0,
+    distances: DistanceMaps | None = None,
+    corner_follows: bool = True,
+    **guidance: Any,
+) -> PIBT | GuidedPIBT:
+    """The planner called ``name`` (one of :data:`PLANNERS`) for a fleet on ``grid``
+    moving by ``moves``, seeded; ``guidance`` as :func:`planner_setup` takes it.
+
+    Raises:
+        ValueError: as :func:`planner_setup`, and for a name of :data:`TURNING_ONLY` with
+            ``moves`` other than ``"rotate"``.
+    """
+    setup = planner_setup(name, **guidance)
+    if name in TURNING_ONLY and moves != "rotate":
+        raise ValueError(f"planner {name!r} plans turning robots only (moves='rotate'), got "
+                         f"moves={moves!r}")  # fmt: skip
+    if setup.config is None:
+        return PIBT(grid, distances=distances, corner_follows=corner_follows, seed=seed,
+                    moves=moves)  # fmt: skip
+    repair = None if setup.repair is None else WindowRepair(seed=seed, **setup.repair)
+    return GuidedPIBT(grid, distances=distances, corner_follows=corner_follows, seed=seed,
+                      moves=moves, config=setup.config, operations=setup.operations,
+                      repair=repair)  # fmt: skip
