@@ -96,14 +96,18 @@ def guidance_of(name: str, time_limit: float | None) -> dict[str, object]:
 
 
 def scheduler_name(text: str) -> str:
-    """A scheduler's name: one of ``SCHEDULER_NAMES``, or ``assignment=W`` (W >= 0)."""
+    """A scheduler's name: one of ``SCHEDULER_NAMES``, or ``assignment=W`` or ``rematch=W``
+    (W >= 0)."""
     kind, equals, weight = text.partition("=")
     try:
-        if text in SCHEDULER_NAMES or (kind == "assignment" and equals and float(weight) >= 0):
+        weighed = kind in ("assignment", "rematch") and equals and float(weight) >= 0
+        if text in SCHEDULER_NAMES or weighed:
             return text
     except ValueError:
         pass
-    raise argparse.ArgumentTypeError(f"expected one of {SCHEDULER_NAMES} or assignment=W")
+    raise argparse.ArgumentTypeError(
+        f"expected one of {SCHEDULER_NAMES}, assignment=W or rematch=W"
+    )
 
 
 def scheduler_option(name: str | None, grid: object) -> dict[str, object]:

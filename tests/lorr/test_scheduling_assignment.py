@@ -134,8 +134,13 @@ def test_schedulers_by_name_and_bad_settings():
     assert isinstance(scheduler_for("assignment", grid), AssignmentScheduler)
     assert scheduler_for("assignment=1.5", grid).length_weight == 1.5
     assert scheduler_for("assignment=1000", grid).length_weight == 1000
-    for bad in ("fastest", "assignment=-1", "assignment=x", "assignment=inf", "assignment=1e12"):
-        with pytest.raises(ValueError, match=r"assignment|unknown"):
+    assert not scheduler_for("assignment", grid).rematch
+    rematching = scheduler_for("rematch=0.25", grid)
+    assert (rematching.rematch, rematching.length_weight, rematching.__name__) == (
+        True, 0.25, "rematch")  # fmt: skip
+    for bad in ("fastest", "assignment=-1", "assignment=x", "assignment=inf", "assignment=1e12",
+                "rematch=-1"):  # fmt: skip
+        with pytest.raises(ValueError, match=r"assignment|rematch|unknown"):
             scheduler_for(bad, grid)
     with pytest.raises(ValueError, match="length_weight"):
         AssignmentScheduler(grid, candidates=0)
@@ -149,12 +154,14 @@ def test_schedulers_by_name_and_bad_settings():
     robots=st.integers(1, 8),
     seed=st.integers(0, 2**16),
     name=st.sampled_from(["guided", "guided-repair"]),
+    rematch=st.booleans(),
 )
 def test_a_turning_fleet_scheduled_by_it_is_granted_every_move_and_replays(
-    rows, cols, shelf_bits, robots, seed, name
+    rows, cols, shelf_bits, robots, seed, name, rematch
 ):
     """A 2024 instance on a random floor (two-stop tasks), its tasks handed out by the
-    assignment: traffic refuses no planned move, and the same seed plays the same run."""
+    assignment, rematching or not: traffic refuses no planned move, and the same seed
+    plays the same run."""
     try:
         grid = WarehouseGrid.from_layout(shelf_layout(rows, cols, shelf_bits))
     except ValueError:  # a floor the grid refuses (no cell but the start reached)
@@ -167,7 +174,7 @@ def test_a_turning_fleet_scheduled_by_it_is_granted_every_move_and_replays(
                            task_offsets=np.arange(31) * 2, task_stops=rng.choice(free, 60),
                            num_tasks_reveal=1.5, assignment="scheduler",
                            version="2024 LoRR")  # fmt: skip
-    env = lorr.fleet(problem, max_cycles=30, scheduler=AssignmentScheduler(grid))
+    env = lorr.fleet(problem, max_cycles=30, scheduler=AssignmentScheduler(grid, rematch=rematch))
     refused, digest = play(env, planner_policy(name, seed), seed, 30)
     assert refused == 0
     assert play(env, planner_policy(name, seed), seed, 30) == (0, digest)

@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from warehouse_phys.lorr.startkit.scheduler import KEEP_WITHIN, EntryScheduler, OpenTasks
+from warehouse_phys.lorr.rematching import KEEP_WITHIN
+from warehouse_phys.lorr.startkit.scheduler import EntryScheduler, OpenTasks
 
 COLS = 10
 

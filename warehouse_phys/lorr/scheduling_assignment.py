@@ -73,6 +73,9 @@ class AssignmentScheduler:
         candidates: Cheapest open tasks each robot may be paired with (>= 1).
         distances: Distance maps of the floor (new, of at most :data:`MAX_BYTES`, by
             default).
+        rematch: Ask the errand list to pair again, with the free robots, the robots on
+            their way to a task not opened yet (:attr:`rematch`,
+            :mod:`warehouse_phys.lorr.rematching`): ``"rematch"`` by name.
 
     Raises:
         ValueError: for a weight below 0 or not finite, or no candidates.
@@ -85,6 +88,7 @@ class AssignmentScheduler:
         length_weight: float = LENGTH_WEIGHT,
         candidates: int = CANDIDATES,
         distances: DistanceMaps | None = None,
+        rematch: bool = False,
     ) -> None:
         if not 0 <= length_weight <= MAX_LENGTH_WEIGHT or candidates < 1:
             raise ValueError(f"length_weight must be 0 to {MAX_LENGTH_WEIGHT:g} and candidates "
@@ -93,7 +97,11 @@ class AssignmentScheduler:
         self.length_weight = float(length_weight)
         self.candidates = int(candidates)
         self.distances = distances or DistanceMaps(grid, max_bytes=MAX_BYTES)
-        self.__name__ = "assignment"
+        #: Whether the errand list (:class:`~warehouse_phys.lorr.errands.ScheduledTasks`)
+        #: hands it, each step, the robots on their way to a task not opened yet with the
+        #: free ones (their tasks back among the open ones).
+        self.rematch = bool(rematch)
+        self.__name__ = "rematch" if self.rematch else "assignment"
 
     def __call__(
         self,
@@ -151,24 +159,26 @@ class AssignmentScheduler:
         return robots[reachable], tasks[reachable], cost[reachable]
 
 
-#: Every scheduler's name: the built-in ones and ``"assignment"`` (:class:`AssignmentScheduler`).
-SCHEDULER_NAMES = (*SCHEDULERS, "assignment")
+#: Every scheduler's name: the built-in ones, ``"assignment"`` (:class:`AssignmentScheduler`)
+#: and ``"rematch"`` (the same, rematching: :attr:`AssignmentScheduler.rematch`).
+SCHEDULER_NAMES = (*SCHEDULERS, "assignment", "rematch")
 
 
 def scheduler_for(name: str, grid: WarehouseGrid) -> Scheduler:
-    """The scheduler called ``name`` (of :data:`SCHEDULER_NAMES`; ``assignment=W`` is the
-    assignment with ``length_weight`` W) for a fleet on ``grid``.
+    """The scheduler called ``name`` (of :data:`SCHEDULER_NAMES`; ``assignment=W`` and
+    ``rematch=W`` take ``length_weight`` W) for a fleet on ``grid``.
 
     Raises:
         ValueError: naming the known schedulers, for another name.
     """
     kind, equals, weight = name.partition("=")
-    if kind == "assignment":
+    if kind in ("assignment", "rematch"):
         try:
-            return AssignmentScheduler(grid, **({"length_weight": float(weight)} if equals else {}))
+            weighed = {"length_weight": float(weight)} if equals else {}
+            return AssignmentScheduler(grid, rematch=kind == "rematch", **weighed)
         except ValueError:
             raise ValueError(
-                f"assignment=W needs a weight W from 0 to {MAX_LENGTH_WEIGHT:g}, got {name!r}"
+                f"{kind}=W needs a weight W from 0 to {MAX_LENGTH_WEIGHT:g}, got {name!r}"
             ) from None
     if name not in SCHEDULERS:
         raise ValueError(f"unknown scheduler {name!r}; known: {', '.join(SCHEDULER_NAMES)}")

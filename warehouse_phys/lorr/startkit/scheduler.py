@@ -12,11 +12,10 @@ the way to are paired with them by one of :data:`ENTRY_SCHEDULERS`: ``"assignmen
 kit's default entry weighs them) or ``"nearest"``. Like :mod:`warehouse_phys.world.grid`, this
 module imports neither gymnasium, pymunk nor pygame.
 
-Why pair again: tasks are revealed as others finish, so a robot half-way to a far task
-may now pass a new one close by, while a robot freed since stands nearer the far one. By
-the kit's rules (:mod:`~warehouse_phys.lorr.startkit.system`, 600 ticks, delay seeds
-0-11) pairing again lifted random-example_400 from 507.7 tasks to 522.3 (guided PIBT,
-the assignment scheduler), with no schedule error.
+Why pair again: :mod:`warehouse_phys.lorr.rematching`, which picks the robots. By the
+kit's rules (:mod:`~warehouse_phys.lorr.startkit.system`, 600 ticks, delay seeds 0-11)
+pairing again lifted random-example_400 from 507.7 tasks to 522.3 (guided PIBT, the
+assignment scheduler), with no schedule error.
 """
 
 from __future__ import annotations
@@ -25,6 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from warehouse_phys.lorr.rematching import rematch_candidates
 from warehouse_phys.lorr.scheduling import SCHEDULERS, schedule_checked, scheduler_named
 from warehouse_phys.lorr.scheduling_assignment import AssignmentScheduler
 from warehouse_phys.world.grid import WarehouseGrid
@@ -32,18 +32,6 @@ from warehouse_phys.world.grid import WarehouseGrid
 #: The schedulers an entry may use, by name: the built-in greedy pairings, and the
 #: minimum-cost assignment on true distances (which needs the floor).
 ENTRY_SCHEDULERS = (*SCHEDULERS, "assignment")
-#: A robot this close to its task's first errand keeps the task, opened or not [moves]:
-#: the kit takes a schedule a round after it is made, and the robot may have opened the
-#: task by then (taking it away would be a schedule error). Over delay seeds 0-11 on
-#: random-example_400 (the entry's planner), 2 gave 537.4 tasks, 0 gave 532.3 and 4
-#: gave 528.8; with one-step guided PIBT (seeds 0-5), 2: 523.7, 4: 521.3, 8: 514.0.
-KEEP_WITHIN = 2
-#: Most robots paired again a round, the farthest from their first errands first: the
-#: pairing's cost grows with the robots in it, and the kit gives the scheduler and the
-#: planner one second together. In the kit at 10,000 robots (some 8,000 of them on
-#: their way to a task), the scheduler's median call took 127 ms without pairing again,
-#: 138 ms with this bound and 141 ms without it.
-PAIR_AGAIN_MAX = 1000
 
 
 class OpenTasks(NamedTuple):
@@ -115,10 +103,9 @@ class EntryScheduler:
         predicted cells), paired with the tasks of ``tasks`` that no robot has or holds;
         robots ``finishing`` (``(N,)`` bool) without a held task are paired too, and hold
         theirs. Robots ``unopened`` (``(N,)`` bool: a task of which no errand is done, nor
-        will be by the end of their staged actions) more than :data:`KEEP_WITHIN` moves
-        from its first errand are paired again with their tasks (:attr:`pair_again`; at
-        most :data:`PAIR_AGAIN_MAX`, the farthest); one the pairing leaves without a task
-        keeps its own."""
+        will be by the end of their staged actions) are paired again with their tasks, as
+        :func:`~warehouse_phys.lorr.rematching.rematch_candidates` picks them
+        (:attr:`pair_again`); one the pairing leaves without a task keeps its own."""
         proposal = np.asarray(current, dtype=np.int64).copy()
         n = len(proposal)
         cells = np.asarray(cells, np.int64)
@@ -161,9 +148,9 @@ class EntryScheduler:
         self, proposal: np.ndarray, cells: np.ndarray, ids: np.ndarray, next_stop: np.ndarray,
         unopened: np.ndarray,
     ) -> np.ndarray:  # fmt: skip
-        """``(N,)`` bool: the robots of ``unopened`` with an open task more than
-        :data:`KEEP_WITHIN` moves (round the shelves for ``"assignment"``, else Manhattan)
-        from its next errand, at most :data:`PAIR_AGAIN_MAX` of them (the farthest)."""
+        """``(N,)`` bool: the robots of ``unopened`` with an open task that
+        :func:`~warehouse_phys.lorr.rematching.rematch_candidates` picks (round the
+        shelves for ``"assignment"``, else Manhattan)."""
         again = np.zeros(len(proposal), bool)
         if not len(ids):
             return again
@@ -171,16 +158,8 @@ class EntryScheduler:
         slot = np.minimum(np.searchsorted(ids[order], proposal), len(ids) - 1)
         listed = (proposal >= 0) & (ids[order][slot] == proposal)
         robots = np.flatnonzero(unopened & listed)
-        first = next_stop[order][slot[robots]]
-        here = cells[robots]
-        if isinstance(self.scheduler, AssignmentScheduler):
-            way = self.scheduler.distances.lookup(here, first)
-        else:
-            way = np.abs(here // self.cols - first // self.cols) + np.abs(
-                here % self.cols - first % self.cols
-            )
-        far = np.flatnonzero(way > KEEP_WITHIN)
-        if len(far) > PAIR_AGAIN_MAX:
-            far = far[np.argsort(-way[far], kind="stable")[:PAIR_AGAIN_MAX]]
-        again[robots[far]] = True
+        distances = getattr(self.scheduler, "distances", None)
+        picked = rematch_candidates(cells[robots], next_stop[order][slot[robots]], self.cols,
+                                    distances)  # fmt: skip
+        again[robots[picked]] = True
         return again
