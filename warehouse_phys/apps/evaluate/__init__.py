@@ -73,7 +73,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--moves", choices=("rotate", "grid"), default="rotate",
                         help="robot model (default rotate, LoRR's turning robots)")  # fmt: skip
     parser.add_argument("--scheduler", help="a 2024 instance's scheduler: nearest, makespan, "
-                        "assignment or assignment=W")  # fmt: skip
+                        "assignment[=W] or rematch[=W] (the assignment, robots on their way "
+                        "to a task not opened paired again)")  # fmt: skip
     parser.add_argument("--guidance", type=json.loads, default={}, metavar="JSON",
                         help="the guided planners' GuidanceConfig fields")  # fmt: skip
     parser.add_argument("--out", type=Path, help="the suite's folder (evaluations/<time>)")

@@ -24,9 +24,8 @@ The kit's Python bridge writes the scheduler's whole answer once it returns, ove
 robots the kit freed in the meantime (their tasks finished in the ticks that ran while it
 computed), which the kit then counts as schedule errors ("task already finished"). So the
 executor, at its first command of a round, waits (at most :data:`SCHEDULER_WAIT` of its
-time) until the
-scheduler of the same interpreter has answered: the kit writes the answer before it lets
-the executor go on (it holds Python's lock while it copies it).
+time) until the scheduler of the same interpreter has answered: the kit writes the
+answer before it lets the executor go on (it holds Python's lock while it copies it).
 
 Time: the kit's rounds are real time (a late plan costs the robots the ticks they wait
 for it, an executor call over its 100 ms a tick of waits for every robot). The planner
