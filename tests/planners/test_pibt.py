@@ -15,6 +15,7 @@ from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.rl.fleet_evaluation import evaluate_fleet, evaluate_throughput
 from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.grid import Action, WarehouseGrid
+from warehouse_phys.world.headings import turning_moves
 from warehouse_phys.world.traffic import WAIT, moves_refused_by_floor, resolve_moves
 
 #: A robot too large for corner follows (diameter 0.68 of a cell).
@@ -309,6 +310,31 @@ def test_turning_robots_keep_the_kiva_warehouse_moving_and_never_strand_a_robot(
     assert result.refused == 0
     assert result.throughput >= 2.5
     assert (env.deliveries > 0).all()
+
+
+def test_turning_robots_pass_each_other_out_of_a_dead_end():
+    """robot_1 faces out of the dead end (2, 1); robot_0, first in priority, stands in its
+    mouth facing in, and wants that cell. Pushing on cannot work: robot_0 turns away and
+    backs off, robot_1 follows it out (the swap operation, over several steps), and both
+    arrive. Without the swap the two faced each other for ever."""
+    grid = WarehouseGrid.from_layout(["....", "....", "#.##"])
+    cols = grid.cols
+    cells = np.array([(1, 1), (2, 1)])
+    goals = np.array([(2, 1), (0, 3)])
+    headings = np.array([1, 3])  # south, into the dead end; north, out of it
+    planner = PIBT(grid, seed=0, moves="rotate")
+    planner.plan(cells, goals, headings=headings)
+    planner._priority[:] = [5.5, 0.5]  # robot_0 first
+    arrived = np.zeros(2, dtype=bool)
+    for _ in range(16):
+        actions = planner.plan(cells, goals, ~arrived, headings=headings)
+        grants = turning_moves(grid, cells[:, 0] * cols + cells[:, 1], headings, actions,
+                               arrived)  # fmt: skip
+        assert not grants.refused.any()
+        cells = np.column_stack(np.divmod(grants.ends, cols))
+        headings = grants.headings
+        arrived |= (cells == goals).all(axis=1)
+    assert arrived.all()
 
 
 def test_turning_plans_are_bit_identical_across_processes(run_python):
