@@ -244,7 +244,7 @@ def test_an_instance_runs_with_its_published_figure_and_writes_the_competitions_
     assert summary["moves"] == moves
     assert summary["errands"] == summary["deliveries"] >= summary["tasks"]
     assert summary["published"]["best_per_step"] == 30.97
-    assert summary["scheduler"] == "nearest_free_robot"
+    assert summary["scheduler"] == "rematch"  # the default
     timing = summary["cpu_seconds_of"]
     assert set(timing) == {"reset", "first_step", "median_step", "max_step", "frames",
                            "median_frame"}  # fmt: skip
@@ -259,12 +259,18 @@ def test_the_scheduler_is_chosen_by_name_and_only_for_an_instance(tmp_path, caps
     from tests.envs.test_fleet_instances import small_instance
     from warehouse_phys.apps.simulate import _setup, build_parser
     from warehouse_phys.lorr.instances import write_instance
-    from warehouse_phys.lorr.scheduling import least_makespan, nearest_free_robot
+    from warehouse_phys.lorr.scheduling import least_makespan
+    from warehouse_phys.lorr.scheduling_assignment import AssignmentScheduler
 
     path = write_instance(small_instance("scheduler", robots=4), tmp_path / "w.json")
-    for argv, chosen in (([], nearest_free_robot), (["--scheduler", "makespan"], least_makespan)):
+    for argv, rematch in (([], True), (["--scheduler", "rematch"], True),
+                          (["--scheduler", "assignment"], False)):  # fmt: skip
         env, _ = _setup(build_parser().parse_args(["--instance", str(path), *argv]))
-        assert env.errands.scheduler is chosen
+        assert isinstance(env.errands.scheduler, AssignmentScheduler)
+        assert env.errands.scheduler.rematch is rematch
+    env, _ = _setup(build_parser().parse_args(["--instance", str(path), "--scheduler",
+                                               "makespan"]))  # fmt: skip
+    assert env.errands.scheduler is least_makespan
     assert main(["--scheduler", "makespan", "--out", str(tmp_path / "r")]) == 2
     assert "--scheduler hands out an instance's tasks: give --instance" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()

@@ -104,9 +104,11 @@ def test_scheduled_tasks_keep_the_revealed_count_open_and_refill_from_the_file_i
 
 
 def test_a_robot_keeps_its_task_to_the_end_and_no_task_goes_to_two_robots():
+    """With a scheduler that does not rematch (the default's rematching: its own tests)."""
     rng = np.random.default_rng(0)
     tasks = [rng.integers(0, 42, size=rng.integers(1, 4)).tolist() for _ in range(50)]
-    errands = errand_list(instance(tasks, robots=6, assignment="scheduler", reveal=1.5))
+    errands = errand_list(instance(tasks, robots=6, assignment="scheduler", reveal=1.5),
+                          scheduler=nearest_free_robot)  # fmt: skip
     errands.reset(np.arange(6))
     for _ in range(60):
         held = errands.tasks.copy()
@@ -220,6 +222,7 @@ def test_the_errand_list_gives_task_lengths_to_a_scheduler_that_takes_them():
     errands.reset(np.array([0]))
     assert seen == [[10, 1, 1]]
     assert errands.goals.tolist() == [3]
-    nearest = errand_list(instance(tasks, robots=1, assignment="scheduler", reveal=3))
+    nearest = errand_list(instance(tasks, robots=1, assignment="scheduler", reveal=3),
+                          scheduler=nearest_free_robot)  # fmt: skip
     nearest.reset(np.array([0]))
     assert nearest.goals.tolist() == [1]

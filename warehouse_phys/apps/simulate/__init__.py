@@ -124,7 +124,7 @@ from warehouse_phys.envs.fleet import WarehouseFleetEnv, parallel_env
 from warehouse_phys.envs.fleet.setup import DELIVERY_MODES
 from warehouse_phys.lorr.instances import SCHEDULED, read_instance
 from warehouse_phys.lorr.output import RunRecord
-from warehouse_phys.lorr.scheduling import SCHEDULERS
+from warehouse_phys.lorr.scheduling_assignment import SCHEDULER_NAMES, scheduler_for
 from warehouse_phys.lorr.startkit.system import KitSystem
 from warehouse_phys.rl.fleet_evaluation import FleetPolicy
 from warehouse_phys.rl.fleet_planners import PLANNERS
@@ -181,10 +181,12 @@ def build_parser() -> argparse.ArgumentParser:
         "drive forward (an instance's default, the competition's robots)",
     )  # fmt: skip
     parser.add_argument(
-        "--scheduler", choices=tuple(SCHEDULERS),
-        help="which free robot takes which task, on a 2024 or later instance: nearest (the "
-        "first stop nearest the robot, default) or makespan (the least distance to the first "
-        "stop plus the task's own length, as the competition's default entry)",
+        "--scheduler", choices=SCHEDULER_NAMES,
+        help="which free robot takes which task, on a 2024 or later instance: rematch (a "
+        "minimum-cost assignment on true distances, robots on their way to a task not "
+        "opened yet paired again, default), assignment (the same without pairing again), "
+        "nearest (the first stop nearest the robot) or makespan (the least distance to the "
+        "first stop plus the task's own length, as the competition's default entry)",
     )  # fmt: skip
     parser.add_argument("--rows", type=bounded_int(2, "at least 2 rows"), help="empty floor rows")
     parser.add_argument("--cols", type=bounded_int(2, "at least 2 columns"), help="columns")
@@ -321,7 +323,7 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
                 "(LoRR 2023), without a scheduler"
             )
         if args.scheduler is not None:
-            floor["scheduler"] = SCHEDULERS[args.scheduler]
+            floor["scheduler"] = scheduler_for(args.scheduler, instance.grid)
     elif args.layout is None:
         floor = {"grid_rows": args.rows or 4, "grid_cols": args.cols or 5}
     else:

@@ -8,8 +8,9 @@ follows the instance: ``rotate``) and without ``--physics`` runs
 schedule every round of ``planCommTimeLimit``, made from where the robots will stand, the
 executor's GO or STOP every tick before the tick's delays) with the entry's planner
 (``--policy``: the entry's ``guided-ops-repair``, ``guided`` or ``pibt``, set as in the
-entry, or any other planner by name), scheduler (``--scheduler``; by default the
-entry's, the minimum-cost assignment on true distances) and executor, robots
+entry, or any other planner by name), scheduler (``--scheduler``; by default, and as
+``rematch``, the entry's: the minimum-cost assignment on true distances, pairing again
+the robots on their way to a task not opened yet) and executor, robots
 as squares of side ``agentSize`` (the kit's swept-square rule, checked every tick). It
 writes the kit's 2026 output file (:mod:`warehouse_phys.lorr.output_2026`) as
 ``lorr-output.json``.
@@ -71,8 +72,9 @@ def kit_system(
     run ``delays_from``.
 
     Raises:
-        UsageError: one line, for a policy the entry has no planner of, a 2023 instance, or
-            a ``--delays-from`` file that is not a kit run's output for this instance and
+        UsageError: one line, for a policy the entry has no planner of, a 2023 instance,
+            the scheduler ``assignment`` (the entry's pairs again: ``rematch``), or a
+            ``--delays-from`` file that is not a kit run's output for this instance and
             these ticks.
     """
     if policy not in PLANNERS:
@@ -81,6 +83,10 @@ def kit_system(
     if instance.year < 2024:
         raise UsageError(f"{instance.name} is a 2023 instance: the start kit's rules schedule "
                          "tasks (2024 and later); use --moves grid or a lock-step run")  # fmt: skip
+    if scheduler == "assignment":
+        raise UsageError("--scheduler assignment: by the start kit's rules the entry's "
+                         "assignment pairs again; use rematch (the default), nearest or "
+                         "makespan")  # fmt: skip
     delays: DelayConfig | DelayReplay | None = options.delays
     if delays_from is not None:
         delays = replayed_delays(delays_from, instance, ticks)
@@ -88,7 +94,7 @@ def kit_system(
         return KitSystem(
             instance,
             planner=policy,
-            scheduler=scheduler or "assignment",
+            scheduler="assignment" if scheduler in (None, "rematch") else scheduler,
             ticks_per_move=options.ticks_per_move,
             delays=delays,
             seed=seed,
