@@ -117,7 +117,7 @@ def test_plans_are_granted_and_the_flow_is_what_the_paths_have_left(rows, cols, 
         assert (guidance.flow >= 0).all()
         np.testing.assert_array_equal(guidance.flow, flow_of_paths(guidance))
         if step == 4:
-            guidance._compact(0)
+            guidance._paths.compact(0)
             np.testing.assert_array_equal(guidance.flow, flow_of_paths(guidance))
 
 

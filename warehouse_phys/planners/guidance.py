@@ -80,13 +80,13 @@ from warehouse_phys.planners.guide_searches import GuidePaths, GuideSearches
 from warehouse_phys.planners.lanes import NO_LANE, floor_lanes, one_way_lanes
 from warehouse_phys.planners.operations import OperationPIBT
 from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.planners.pibt.stalls import StallWatch
 from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES
 from warehouse_phys.world.traffic import FLEET_ACTIONS, WAIT, neighbour_table
 
-#: The configuration's names (:mod:`warehouse_phys.planners.guidance_config`) still import
-#: from here.
+#: The configuration's names (``planners.guidance_config``) still import from here.
 __all__ = ["MAX_LANE_PATHS", "GuidanceConfig", "GuidedPIBT", "TrafficGuidance"]
 
 
@@ -300,7 +300,7 @@ class TrafficGuidance:
                 continue
             moves = len(path) - 1
             if paths.used + moves + 2 > len(paths.pool):
-                self._compact(moves + 2)
+                paths.compact(moves + 2)
             paths.pool[paths.used] = -1  # free: a robot pushed off the start rejoins there
             paths.pool[paths.used + 1 : paths.used + moves + 2] = path
             paths.start[i], paths.moves[i], paths.cursor[i] = paths.used + 1, moves, 0
@@ -317,10 +317,6 @@ class TrafficGuidance:
                 rest = paths.pool[first : paths.start[i] + paths.moves[i] + 1]
                 traffic_flow.add_flow(self._graph, self.flow, rest, -1)
             paths.moves[i] = -1
-
-    def _compact(self, needed: int) -> None:
-        """Room for ``needed`` more path cells (:meth:`GuidePaths.compact`)."""
-        self._paths.compact(needed)
 
     def _hold(self, held: np.ndarray) -> None:
         """Make the ``held`` cells walls of the guide paths' graph; when they change, every
@@ -391,6 +387,8 @@ class GuidedPIBT:
             None (default): no repair.
         repair_depth: The repair's window [steps] (its operations' actions, 1..4) where the
             plan is one-step PIBT's; over operations it is theirs.
+        hand_over_on_stall: Over operations, plan one step unrepaired for good once the
+            fleet stalls (:attr:`stall_watch`; a jam PIBT's swap undoes); default True.
 
     Raises:
         ValueError: for ``operations`` or ``repair`` with four-direction robots, or
@@ -409,26 +407,27 @@ class GuidedPIBT:
         operations: int = 0,
         repair: WindowRepair | None = None,
         repair_depth: int = 3,
+        hand_over_on_stall: bool = True,
     ) -> None:
         self.pibt = PIBT(grid, distances=distances, corner_follows=corner_follows, seed=seed,
                          moves=moves)  # fmt: skip
         self.guidance = TrafficGuidance(grid, config)
+        for part, given in (("operations are", operations), ("the repair is", repair)):
+            if given and moves != "rotate":
+                raise ValueError(f"{part} for turning robots (moves='rotate'), got "
+                                 f"moves={moves!r}")  # fmt: skip
         #: The planner over operations, if any.
         self.operations: OperationPIBT | None = None
         if operations:
-            if moves != "rotate":
-                raise ValueError(f"operations are for turning robots (moves='rotate'), got "
-                                 f"moves={moves!r}")  # fmt: skip
             self.operations = OperationPIBT(grid, distances=self.pibt.distances,
                                             corner_follows=corner_follows, seed=seed,
                                             depth=operations)  # fmt: skip
+        #: When the planner over operations hands over (``planners.pibt.stalls``).
+        self.stall_watch = StallWatch() if operations and hand_over_on_stall else None
         #: The repair, if any, and the operations it plans one-step PIBT's plans over.
         self.repair = repair
         self._window: OperationPIBT | None = None
         if repair is not None:
-            if moves != "rotate":
-                raise ValueError(f"the repair is for turning robots (moves='rotate'), got "
-                                 f"moves={moves!r}")  # fmt: skip
             self._window = self.operations or OperationPIBT(
                 grid, distances=self.pibt.distances, corner_follows=corner_follows, seed=seed,
                 depth=repair_depth)  # fmt: skip
@@ -483,8 +482,11 @@ class GuidedPIBT:
             # leaves its path (and needs a new one) only when no operation along it fits.
             local = self.guidance.cell_values(self.operations.local_cells(here),
                                               beside_cost=self.operations.depth + 1.0)  # fmt: skip
-            return self.operations.plan(cells, goals, movable, present, headings=headings,
-                                        cell_values=local, repair=self.repair)  # fmt: skip
+            actions = self.operations.plan(cells, goals, movable, present, headings=headings,
+                                           cell_values=local, repair=self.repair)  # fmt: skip
+            if self.stall_watch is not None and self.stall_watch.observe(actions, movable):
+                self.drop_operations_and_repair()  # from the next plan on
+            return actions
         actions = self.pibt.plan(cells, goals, movable, present, headings=headings,
                                  candidate_values=values)  # fmt: skip
         if self.repair is None or self._window is None:

@@ -35,7 +35,11 @@ a robot put out while it faces a wall cannot leave at once; in crowds of turning
 robots every operation that brings the robots at the top nearer their goals can meet
 two or more others, and the robots wait more and more (2024 WAREHOUSE's rows below its
 pick-up pockets; with smaller ``revisits`` and ``max_kicks`` the fleet locked up: the
-documentation's LoRR page, ``docs/lorr.md``, "Planning over operations"). Nor does it
+documentation's LoRR page, ``docs/lorr.md``, "Planning over operations"); nor is
+there a swap operation, so two robots facing each other at a dead end's mouth stay there
+and the robots behind them pile up (the main rounds' random floors:
+:class:`~warehouse_phys.planners.guidance.GuidedPIBT` then hands over to one-step PIBT,
+:mod:`warehouse_phys.planners.pibt.stalls`). Nor does it
 plan beyond its operations' steps by itself: a
 :class:`~warehouse_phys.planners.repair.WindowRepair` given to :meth:`OperationPIBT.plan`
 improves the plan over them (LNS).

@@ -23,7 +23,9 @@ Its parts each have a module of their own: the floor round parked robots
 (:mod:`~warehouse_phys.planners.pibt.swaps`), the straight-line pushes of fleets without
 corner follows (:mod:`~warehouse_phys.planners.pibt.straight`), turning robots' actions
 (:mod:`~warehouse_phys.planners.pibt.turning`) and the priorities
-(:mod:`~warehouse_phys.planners.pibt.priorities`); the recursion and the names are the paper's.
+(:mod:`~warehouse_phys.planners.pibt.priorities`); the recursion and the names are the
+paper's. :mod:`~warehouse_phys.planners.pibt.stalls` says when a planner over operations
+should hand its fleet over to PIBT.
 """
 
 from __future__ import annotations
