@@ -16,6 +16,7 @@ from warehouse_phys.rl.fleet_evaluation import evaluate_fleet, evaluate_throughp
 from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.grid import Action, WarehouseGrid
 from warehouse_phys.world.headings import turning_moves
+from warehouse_phys.world.maps import random_floor
 from warehouse_phys.world.traffic import WAIT, moves_refused_by_floor, resolve_moves
 
 #: A robot too large for corner follows (diameter 0.68 of a cell).
@@ -335,6 +336,27 @@ def test_turning_robots_pass_each_other_out_of_a_dead_end():
         headings = grants.headings
         arrived |= (cells == goals).all(axis=1)
     assert arrived.all()
+
+
+def test_turning_robots_keep_a_dense_random_floor_moving():
+    """400 turning robots on 32 x 32 floors with 20 % shelves at random (the LoRR main
+    rounds' random floors' kind: many dead ends), lifelong, 600 steps, seeds 0-2: the last
+    third delivers as much as the middle one (swap: 1,981 against 1,879). Without the swap
+    operation the fleets jammed at dead ends and the last third fell to 1,182."""
+    middle = last = 0
+    for seed in range(3):
+        rows = random_floor(rows=32, cols=32, density=0.2, seed=seed)
+        env = fleet.parallel_env(num_robots=400, layout=list(rows), starts="random",
+                                 lifelong=True, moves="rotate", max_cycles=600)  # fmt: skip
+        policy = pibt_policy(seed)
+        observations, infos = env.reset(seed=seed)
+        done = []
+        for _ in range(600):
+            observations, _, _, _, infos = env.step(policy(env, observations, infos))
+            done.append(int(env.deliveries.sum()))
+        middle += done[399] - done[199]
+        last += done[599] - done[399]
+    assert last >= 0.95 * middle
 
 
 def test_turning_plans_are_bit_identical_across_processes(run_python):

@@ -169,9 +169,8 @@ def default_scheduler(grid: WarehouseGrid) -> AssignmentScheduler:
     their way to a task not opened yet. With guided PIBT and turning robots it finished
     more tasks than the nearest pairing, the makespan pairing and the plain assignment on
     each of the 2024 main round's five random floors (3.5-11 % more than the next best,
-    5-26 % more than the nearest),
-    and on 2024 WAREHOUSE more than the makespan pairing over 300 steps and the
-    assignment over 2,000 (``docs/lorr.md``)."""
+    5-26 % more than the nearest), and on 2024 WAREHOUSE more than the makespan pairing
+    over 300 steps and the assignment over 2,000 (``docs/lorr.md``)."""
     return AssignmentScheduler(grid, rematch=True)
 
 

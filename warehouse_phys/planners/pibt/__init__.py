@@ -104,8 +104,8 @@ class PIBT:
     end turns away and backs off (its new cell its commitment), and the other, pulled
     into its cell, turns to face it and follows as it leaves. Without it, a robot whose
     goal lies in a dead end held by another waited at the mouth for ever, and the
-    robots behind them piled up into a jam (a 32 x 32 random floor with 400 robots
-    stopped almost entirely after 600 steps). Every plan passes the traffic rule before
+    robots behind them piled up into a jam (on a 32 x 32 random floor with 400 robots,
+    85 % of the actions were waits by step 1,000). Every plan passes the traffic rule before
     it is returned (a forward move behind a robot that turns instead of leaving waits),
     so it is granted in full; PIBT's reachability guarantee is not claimed for turning
     robots (a robot that must turn before it can make way holds up those behind it).
