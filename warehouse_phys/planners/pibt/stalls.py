@@ -70,5 +70,6 @@ class StallWatch:
             return False
         average = sum(self._shares) / self.window
         self.best = max(self.best, average)
-        self.stalled |= average < self.fraction * self.best
-        return average < self.fraction * self.best
+        stalled = average < self.fraction * self.best
+        self.stalled |= stalled
+        return stalled
