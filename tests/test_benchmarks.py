@@ -263,6 +263,30 @@ def test_the_planners_benchmark_plays_operations_with_turning_robots_only(tmp_pa
         ("guided-repair", "rotate", 0)] * 2  # fmt: skip
 
 
+def test_the_guide_threads_benchmark_finds_the_same_actions_on_one_thread_and_two(tmp_path):
+    """A smoke run: 60 turning robots, 3 steps, 2 rounds; the same actions with one
+    worker and two, every figure printed and written; bad numbers refused in one line."""
+    result = subprocess.run(
+        [sys.executable, "benchmarks/guide_threads.py", "--robots", "60", "--steps", "3",
+         "--rounds", "2", "--batch", "4", "--json", str(tmp_path / "threads.json")],
+        cwd=ROOT, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "the same actions with 1 and 2 workers: True" in result.stdout
+    for name in ("1 worker", "2 workers", "sequential"):
+        assert re.search(rf"{name} +\(batch +\d+\): first step [\d.]+ s wall; then \d+ ms wall",
+                         result.stdout)  # fmt: skip
+    assert re.search(r"1 worker / 2 workers, a step: median [\d.]+ \(rounds", result.stdout)
+    summary = json.loads((tmp_path / "threads.json").read_text())
+    assert summary["same_actions"]
+    assert len(summary["ratio_step"]) == 2
+    refused = subprocess.run([sys.executable, "benchmarks/guide_threads.py", "--steps", "1"],
+                             cwd=ROOT, capture_output=True, text=True, check=False)  # fmt: skip
+    assert refused.returncode == 2
+    assert "--steps must be at least 2" in refused.stderr
+    assert "Traceback" not in refused.stderr
+
+
 @pytest.mark.slow
 def test_the_physics_scale_benchmark_reports_time_memory_and_real_time(tmp_path):
     """A smoke run: two small fleets, every candidate (threads, safety), the figure, and
