@@ -15,12 +15,14 @@ one worker and with two, interleaved round by round (the order rotating), and re
 - beside them, the sequential search (``search_batch=1``: each path sees every path
   before it), whose plans differ: its deliveries and its time, for what batching costs.
 
-The floor is the package's ``kiva-140-500`` (warehouse_large's size), lifelong random
-packages, turning robots, seed 0: no data from ``../shared`` is needed. The threads save
+The floor is the package's ``kiva-140-500`` (warehouse_large's size; ``--map`` names
+another of the package's maps), lifelong random packages, turning robots, seed 0: no data
+from ``../shared`` is needed. The threads save
 time only where a core is free: on a machine whose cores are busy the ratio falls
 towards 1.
 
     python benchmarks/guide_threads.py [--robots N] [--steps S] [--rounds K] [--batch B]
+                                       [--map NAME] [--json PATH]
 """
 
 from __future__ import annotations
@@ -40,15 +42,18 @@ from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.rl.fleet_planners import planner_policy
 from warehouse_phys.world.maps import map_path
 
-#: Robots, steps a round, rounds and the batch of the default run.
-ROBOTS, STEPS, ROUNDS, BATCH = 10_000, 40, 3, 64
+#: Robots, steps a round, rounds, the batch and the floor of the default run.
+ROBOTS, STEPS, ROUNDS, BATCH, FLOOR = 10_000, 40, 3, 64, "kiva-140-500"
 
 
-def play(robots: int, steps: int, batch: int, workers: int) -> dict[str, object]:
-    """One run of guided PIBT, ``robots`` turning robots on kiva-140-500 for ``steps``
-    steps with guide paths searched ``batch`` at a time on ``workers`` threads: the
-    planner's wall and CPU seconds a step, deliveries, and a digest of every action."""
-    env = parallel_env(layout=str(map_path("kiva-140-500")), num_robots=robots, lifelong=True,
+def play(
+    robots: int, steps: int, batch: int, workers: int, floor: str = FLOOR
+) -> dict[str, object]:
+    """One run of guided PIBT, ``robots`` turning robots on the package's map ``floor``
+    for ``steps`` steps with guide paths searched ``batch`` at a time on ``workers``
+    threads: the planner's wall and CPU seconds a step, deliveries, and a digest of
+    every action."""
+    env = parallel_env(layout=str(map_path(floor)), num_robots=robots, lifelong=True,
                        max_cycles=steps, moves="rotate")  # fmt: skip
     policy = planner_policy("guided", seed=0, search_batch=batch, workers=workers)
     observations, infos = env.reset(seed=0)
@@ -66,14 +71,16 @@ def play(robots: int, steps: int, batch: int, workers: int) -> dict[str, object]
     return {"wall": wall, "cpu": cpu, "delivered": delivered, "digest": digest.hexdigest()}
 
 
-def measure(robots: int, steps: int, rounds: int, batch: int) -> dict[str, object]:
+def measure(
+    robots: int, steps: int, rounds: int, batch: int, floor: str = FLOOR
+) -> dict[str, object]:
     """The interleaved rounds (see the module): per setting, per round, the medians."""
     settings = {"1 worker": (batch, 1), "2 workers": (batch, 2), "sequential": (1, 1)}
     found: dict[str, list[dict[str, object]]] = {name: [] for name in settings}
     names = list(settings)
     for k in range(rounds):
         for name in names[k % len(names) :] + names[: k % len(names)]:
-            found[name].append(play(robots, steps, *settings[name]))
+            found[name].append(play(robots, steps, *settings[name], floor))
             run = found[name][-1]
             print(f"round {k + 1} {name:<10}: first step {run['wall'][0]:.2f} s wall, then "
                   f"{1000 * statistics.median(run['wall'][1:]):.0f} ms wall "
@@ -82,7 +89,7 @@ def measure(robots: int, steps: int, rounds: int, batch: int) -> dict[str, objec
     same = all(a["digest"] == b["digest"] for a, b in zip(found["1 worker"], found["2 workers"],
                                                             strict=True))  # fmt: skip
     summary: dict[str, object] = {
-        "robots": robots, "steps": steps, "rounds": rounds, "batch": batch,
+        "robots": robots, "steps": steps, "rounds": rounds, "batch": batch, "map": floor,
         "same_actions": same, "cpus": os.cpu_count(), "python": platform.python_version(),
     }  # fmt: skip
     for name, runs in found.items():
@@ -107,13 +114,18 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     parser.add_argument("--steps", type=int, default=STEPS, help=f"steps a run ({STEPS})")
     parser.add_argument("--rounds", type=int, default=ROUNDS, help=f"rounds ({ROUNDS})")
     parser.add_argument("--batch", type=int, default=BATCH, help=f"search_batch ({BATCH})")
+    parser.add_argument("--map", default=FLOOR, help=f"a map of the package's ({FLOOR})")
     parser.add_argument("--json", help="write the summary to this JSON file")
     args = parser.parse_args(argv)
     for name in ("robots", "steps", "rounds", "batch"):
         if getattr(args, name) < (2 if name == "steps" else 1):
             parser.error(f"--{name} must be at least {2 if name == 'steps' else 1}")
-    summary = measure(args.robots, args.steps, args.rounds, args.batch)
-    print(f"\nguided PIBT, {args.robots:,} turning robots on kiva-140-500, {args.steps} steps, "
+    try:
+        map_path(args.map)
+    except ValueError as error:
+        parser.error(str(error))
+    summary = measure(args.robots, args.steps, args.rounds, args.batch, args.map)
+    print(f"\nguided PIBT, {args.robots:,} turning robots on {args.map}, {args.steps} steps, "
           f"{args.rounds} rounds, {os.cpu_count()} CPUs, "
           f"Python {platform.python_version()}")  # fmt: skip
     print(f"the same actions with 1 and 2 workers: {summary['same_actions']}")

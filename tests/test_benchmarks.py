@@ -264,11 +264,13 @@ def test_the_planners_benchmark_plays_operations_with_turning_robots_only(tmp_pa
 
 
 def test_the_guide_threads_benchmark_finds_the_same_actions_on_one_thread_and_two(tmp_path):
-    """A smoke run: 60 turning robots, 3 steps, 2 rounds; the same actions with one
-    worker and two, every figure printed and written; bad numbers refused in one line."""
+    """A smoke run: 40 turning robots on kiva-33-46, 3 steps, 2 rounds; the same actions
+    with one worker and two, every figure printed and written; bad numbers and an unknown
+    map refused in one line."""
     result = subprocess.run(
-        [sys.executable, "benchmarks/guide_threads.py", "--robots", "60", "--steps", "3",
-         "--rounds", "2", "--batch", "4", "--json", str(tmp_path / "threads.json")],
+        [sys.executable, "benchmarks/guide_threads.py", "--robots", "40", "--steps", "3",
+         "--rounds", "2", "--batch", "4", "--map", "kiva-33-46", "--json",
+         str(tmp_path / "threads.json")],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
@@ -280,11 +282,13 @@ def test_the_guide_threads_benchmark_finds_the_same_actions_on_one_thread_and_tw
     summary = json.loads((tmp_path / "threads.json").read_text())
     assert summary["same_actions"]
     assert len(summary["ratio_step"]) == 2
-    refused = subprocess.run([sys.executable, "benchmarks/guide_threads.py", "--steps", "1"],
-                             cwd=ROOT, capture_output=True, text=True, check=False)  # fmt: skip
-    assert refused.returncode == 2
-    assert "--steps must be at least 2" in refused.stderr
-    assert "Traceback" not in refused.stderr
+    for args, message in ((["--steps", "1"], "--steps must be at least 2"),
+                          (["--map", "nowhere"], "unknown benchmark map 'nowhere'")):  # fmt: skip
+        refused = subprocess.run([sys.executable, "benchmarks/guide_threads.py", *args],
+                                 cwd=ROOT, capture_output=True, text=True, check=False)  # fmt: skip
+        assert refused.returncode == 2
+        assert message in refused.stderr
+        assert "Traceback" not in refused.stderr
 
 
 @pytest.mark.slow
