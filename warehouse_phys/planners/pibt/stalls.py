@@ -12,7 +12,10 @@ operation (:class:`~warehouse_phys.planners.pibt.PIBT`) and does not jam there.
 
 The measure is relative to the run itself, so that it holds on any floor: a fleet on a
 dense floor that always drives forward less than one on an open floor is not a stall;
-a fleet that drives forward half as much as it once did is. Like
+a fleet that drives forward half as much as it once did is. What it does not see: a
+gridlock in one part of a floor while the rest drives on (2024 WAREHOUSE, 10,000 robots
+over operations: 803 robots still for 50 steps in the one-cell aisles by the stations,
+and the fleet's forward share 71 % against its best 84 %; ``docs/lorr.md``). Like
 :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
 pygame.
 """
