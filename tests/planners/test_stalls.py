@@ -4,7 +4,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from warehouse_phys.planners.guidance import GuidedPIBT
-from warehouse_phys.planners.pibt.stalls import STALL_FRACTION, STALL_WINDOW, StallWatch
+from warehouse_phys.planners.pibt.stalls import (
+    STALL_FRACTION,
+    STALL_WINDOW,
+    STILL_PLANS,
+    STILL_SHARE,
+    StallWatch,
+)
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import TurnAction, turning_moves
 
@@ -49,18 +55,80 @@ def test_a_fleet_whose_forward_share_never_falls_is_never_stalled(shares, window
 
 def test_the_watch_refuses_a_bad_window_or_fraction():
     assert (STALL_WINDOW, STALL_FRACTION) == (20, 0.5)
+    assert (STILL_PLANS, STILL_SHARE) == (50, 0.05)
     for window in (0, 1.5, True):
         with pytest.raises(ValueError, match="window must be an integer >= 1"):
             StallWatch(window=window)
+        with pytest.raises(ValueError, match="still_plans must be an integer >= 1"):
+            StallWatch(still_plans=window)
     for fraction in (-0.1, 1.5, float("nan")):
         with pytest.raises(ValueError, match="fraction must be 0 to 1"):
             StallWatch(fraction=fraction)
+        with pytest.raises(ValueError, match="still_share must be 0 to 1"):
+            StallWatch(still_share=fraction)
 
 
-def dead_end_run(hand_over: bool, steps: int = 80) -> tuple[np.ndarray, bool]:
+def test_robots_still_away_from_their_goals_are_a_stall_the_forward_share_misses():
+    """98 of 100 robots drive on (a forward share that never falls), 3 stand in a jam:
+    once they have stood 5 plans, 3 > 2 % of the fleet. Robots on their goals and parked
+    robots do not count, and a robot that moves starts again."""
+    watch = StallWatch(window=2, still_plans=5, still_share=0.02)
+    n, goal = 100, np.full(100, -1)
+    moving = np.ones(n, dtype=bool)
+    plan = plan_with(0.97, n)
+    here = np.arange(n) * 10
+    said = []
+    for _ in range(8):
+        here = here + np.r_[np.zeros(3, np.int64), np.ones(n - 3, np.int64)]  # 3 stand
+        said.append(watch.observe(plan, moving, here, goal))
+    assert said == [False] * 5 + [True] * 3  # 5 plans stood after the first one seen
+    assert watch.stalled
+    assert watch.best == pytest.approx(0.97)
+    assert list(watch.still[:4]) == [7, 7, 7, 0]
+
+    for stands_on_goal, parked in ((True, False), (False, True)):
+        watch = StallWatch(window=2, still_plans=5, still_share=0.02)
+        here = np.arange(n) * 10
+        goal = here.copy() if stands_on_goal else np.full(n, -1)
+        moving = np.ones(n, dtype=bool)
+        moving[:3] = not parked
+        for _ in range(8):
+            here = here + np.r_[np.zeros(3, np.int64), np.ones(n - 3, np.int64)]
+            goal[:3] = here[:3] if stands_on_goal else -1
+            assert not watch.observe(plan, moving, here, goal)
+        assert not watch.stalled
+
+    watch = StallWatch(window=2, still_plans=5, still_share=0.0)
+    one, here, goal = np.ones(1, bool), np.zeros(1, np.int64), np.full(1, 9)
+    said = [watch.observe(plan_with(1.0, 1), one, here, goal) for _ in range(5)]
+    here[0] = 1  # it moves: its count starts again
+    said += [watch.observe(plan_with(1.0, 1), one, here, goal) for _ in range(6)]
+    assert said == [False] * 10 + [True]
+    assert not watch.observe(plan_with(1.0, 2), np.ones(2, bool), np.zeros(2), np.ones(2))
+    assert list(watch.still) == [0, 0]  # a fleet of another size: nothing seen yet
+
+
+@given(st.lists(st.integers(0, 3), min_size=2, max_size=12), st.integers(1, 6),
+       st.integers(0, 40))  # fmt: skip
+def test_robots_that_keep_moving_are_never_still(moves, still_plans, steps):
+    """Every robot leaves its cell each plan (whatever the forward share): never a stall
+    of still robots, and every count stays 0."""
+    watch = StallWatch(window=1, fraction=0.0, still_plans=still_plans, still_share=0.0)
+    here = np.arange(len(moves)) * 100
+    for _ in range(steps):
+        here = here + 1 + np.asarray(moves)
+        assert not watch.observe(np.asarray(moves), np.ones(len(moves), bool), here,
+                                 np.full(len(moves), -1))  # fmt: skip
+    assert not watch.stalled
+
+
+def dead_end_run(
+    hand_over: bool, steps: int = 80, watch: StallWatch | None = None
+) -> tuple[np.ndarray, bool]:
     """robot_0 drives south to the mouth (1, 1) of the dead end (2, 1), its goal, where
-    robot_1 stands facing out with a goal outside; planned over operations. Returns which
-    robots arrived and whether the planner handed over."""
+    robot_1 stands facing out with a goal outside; planned over operations (the planner's
+    stall watch replaced by ``watch``, if given). Returns which robots arrived and whether
+    the planner handed over."""
     grid = WarehouseGrid.from_layout(["....", "....", "#.##"])
     cols = grid.cols
     cells = np.array([(0, 1), (2, 1)])
@@ -68,6 +136,8 @@ def dead_end_run(hand_over: bool, steps: int = 80) -> tuple[np.ndarray, bool]:
     headings = np.array([1, 3])
     planner = GuidedPIBT(grid, seed=0, moves="rotate", operations=3,
                          hand_over_on_stall=hand_over)  # fmt: skip
+    if watch is not None:
+        planner.stall_watch = watch
     arrived = np.zeros(2, dtype=bool)
     for _ in range(steps):
         actions = planner.plan(cells, goals, ~arrived, headings=headings)
@@ -88,3 +158,17 @@ def test_a_planner_over_operations_hands_a_jam_at_a_dead_end_over_to_pibt():
     arrived, stalled = dead_end_run(hand_over=True)
     assert stalled
     assert arrived.all()
+
+
+def test_robots_still_in_a_jam_hand_the_planner_over_too():
+    """The forward share's window longer than the run: only the still robots can tell."""
+    watch = StallWatch(window=1000, still_plans=10, still_share=0.0)
+    arrived, stalled = dead_end_run(hand_over=True, watch=watch)
+    assert stalled
+    assert watch.best == 0.0  # never a full window of forward shares
+    assert arrived.all()
+    watch = StallWatch(window=1000, still_plans=100, still_share=0.0)
+    arrived, stalled = dead_end_run(hand_over=True, watch=watch)
+    assert not stalled  # not still for long enough in 80 plans
+    assert not arrived.any()
+    assert watch.still.max() == 79

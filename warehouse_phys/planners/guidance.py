@@ -388,7 +388,8 @@ class GuidedPIBT:
         repair_depth: The repair's window [steps] (its operations' actions, 1..4) where the
             plan is one-step PIBT's; over operations it is theirs.
         hand_over_on_stall: Over operations, plan one step unrepaired for good once the
-            fleet stalls (:attr:`stall_watch`; a jam PIBT's swap undoes); default True.
+            fleet stalls or its robots stand still (:attr:`stall_watch`; a jam PIBT's
+            swap undoes); default True.
 
     Raises:
         ValueError: for ``operations`` or ``repair`` with four-direction robots, or
@@ -474,9 +475,9 @@ class GuidedPIBT:
             facing = HEADING_MOVES[headings.astype(np.int64)]
         if self.repair is not None:
             self.repair.deadline = deadline
-        values = self.guidance.update(here, goals[:, 0] * cols + goals[:, 1], movable,
-                                      self.pibt.distances, here[present & ~movable],
-                                      facing, deadline)  # fmt: skip
+        goal = goals[:, 0] * cols + goals[:, 1]
+        values = self.guidance.update(here, goal, movable, self.pibt.distances,
+                                      here[present & ~movable], facing, deadline)  # fmt: skip
         if self.operations is not None:
             # A cell beside the guide path costs more than an operation's moves: a robot
             # leaves its path (and needs a new one) only when no operation along it fits.
@@ -484,7 +485,8 @@ class GuidedPIBT:
                                               beside_cost=self.operations.depth + 1.0)  # fmt: skip
             actions = self.operations.plan(cells, goals, movable, present, headings=headings,
                                            cell_values=local, repair=self.repair)  # fmt: skip
-            if self.stall_watch is not None and self.stall_watch.observe(actions, movable):
+            if self.stall_watch is not None and self.stall_watch.observe(actions, movable,
+                                                                         here, goal):  # fmt: skip
                 self.drop_operations_and_repair()  # from the next plan on
             return actions
         actions = self.pibt.plan(cells, goals, movable, present, headings=headings,

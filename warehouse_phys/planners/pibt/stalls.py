@@ -10,13 +10,21 @@ operation (:class:`~warehouse_phys.planners.pibt.PIBT`) and does not jam there.
 :class:`StallWatch` tells the planner over operations when to hand over to it
 (:class:`~warehouse_phys.planners.guidance.GuidedPIBT`).
 
-The measure is relative to the run itself, so that it holds on any floor: a fleet on a
-dense floor that always drives forward less than one on an open floor is not a stall;
-a fleet that drives forward half as much as it once did is. What it does not see: a
-gridlock in one part of a floor while the rest drives on (2024 WAREHOUSE, 10,000 robots
-over operations: 803 robots still for 50 steps in the one-cell aisles by the stations,
-and the fleet's forward share 71 % against its best 84 %; ``docs/lorr.md``). Like
-:mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
+It watches two measures; either one is a stall:
+
+- **The fleet's forward share**, relative to the run itself, so that it holds on any
+  floor: a fleet on a dense floor that always drives forward less than one on an open
+  floor is not a stall; a fleet that drives forward half as much as it once did is.
+- **Robots standing still away from their goals**, which the forward share misses: a
+  gridlock in one part of a floor while the rest drives on (2024 WAREHOUSE, 10,000
+  robots over operations: 803 robots that had not left their cells for 50 steps in the
+  one-cell aisles by the stations, and the fleet's forward share 71 % against its best
+  84 %; ``docs/lorr.md``). A jam holds many such robots and a moving fleet few: over
+  operations, 15-38 % of the robots on the 2024 random floors before their forward share
+  fell, against none on the start kit's random-example_400 over 1,000 steps and 2-5 %
+  there on the kit's ticks with delays. Hence 5 %.
+
+Like :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
 pygame.
 """
 
@@ -32,47 +40,95 @@ from warehouse_phys.world.headings import TurnAction
 STALL_WINDOW = 20
 #: The share of the best average so far below which the fleet has stalled.
 STALL_FRACTION = 0.5
+#: Plans a robot away from its goal keeps its cell before it counts as still [plans].
+STILL_PLANS = 50
+#: The share of the moving robots above which still robots are a stall.
+STILL_SHARE = 0.05
 
 
 class StallWatch:
     """Watches a turning fleet's plans for a stall (the module's docstring): the share
     of its moving robots sent forward, averaged over the last ``window`` plans, below
-    ``fraction`` of the best such average so far. O(N) a plan, O(``window``) memory.
+    ``fraction`` of the best such average so far; or, where the plans come with the
+    robots' cells and goals, more than ``still_share`` of the moving robots away from
+    their goals on the cells they stood on ``still_plans`` plans before and at every
+    plan since. O(N) a plan, O(N + ``window``) memory.
 
     Args:
         window: Plans averaged over (>= 1).
         fraction: Of the best average so far, 0 to 1.
+        still_plans: Plans a robot keeps its cell before it counts as still (>= 1).
+        still_share: Of the moving robots, 0 to 1.
 
     Raises:
-        ValueError: for a window below 1 or a fraction outside 0..1.
+        ValueError: for a window or ``still_plans`` below 1, or a fraction or
+            ``still_share`` outside 0..1.
     """
 
-    def __init__(self, window: int = STALL_WINDOW, fraction: float = STALL_FRACTION) -> None:
-        if isinstance(window, bool) or not isinstance(window, int) or window < 1:
-            raise ValueError(f"window must be an integer >= 1, got {window!r}")
-        if not 0.0 <= fraction <= 1.0:
-            raise ValueError(f"fraction must be 0 to 1, got {fraction!r}")
+    def __init__(
+        self,
+        window: int = STALL_WINDOW,
+        fraction: float = STALL_FRACTION,
+        *,
+        still_plans: int = STILL_PLANS,
+        still_share: float = STILL_SHARE,
+    ) -> None:
+        for name, value in (("window", window), ("still_plans", still_plans)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        for name, value in (("fraction", fraction), ("still_share", still_share)):
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"{name} must be 0 to 1, got {value!r}")
         self.window = window
         self.fraction = float(fraction)
+        self.still_plans = still_plans
+        self.still_share = float(still_share)
         self._shares: deque[float] = deque(maxlen=window)
         #: The best average over ``window`` plans so far.
         self.best = 0.0
+        #: Each robot's plans on its cell away from its goal so far (None: no cells yet).
+        self.still: np.ndarray | None = None
+        self._cells: np.ndarray | None = None
         #: Whether the fleet has stalled (once it has, it stays so).
         self.stalled = False
 
-    def observe(self, actions: np.ndarray, movable: np.ndarray) -> bool:
-        """Take one plan (turning actions, ``(N,)``; ``movable``: the robots it moves) and
-        say whether the fleet has stalled on it (:attr:`stalled` keeps the first time)."""
+    def observe(
+        self,
+        actions: np.ndarray,
+        movable: np.ndarray,
+        here: np.ndarray | None = None,
+        goal: np.ndarray | None = None,
+    ) -> bool:
+        """Take one plan (turning actions, ``(N,)``; ``movable``: the robots it moves;
+        optionally ``here`` and ``goal``, each robot's cell and goal as cell indices,
+        ``(N,)``) and say whether the fleet has stalled on it (:attr:`stalled` keeps the
+        first time)."""
         moving = np.asarray(movable, dtype=bool)
         count = int(moving.sum())
+        still = here is not None and goal is not None and self._count_still(here, goal, moving)
         if not count:  # nothing planned: no evidence either way
             return False
+        stalled = still > self.still_share * count
         forward = int((np.asarray(actions)[moving] == TurnAction.FORWARD).sum())
         self._shares.append(forward / count)
-        if len(self._shares) < self.window:
-            return False
-        average = sum(self._shares) / self.window
-        self.best = max(self.best, average)
-        stalled = average < self.fraction * self.best
+        if len(self._shares) == self.window:
+            average = sum(self._shares) / self.window
+            self.best = max(self.best, average)
+            stalled |= average < self.fraction * self.best
         self.stalled |= stalled
         return stalled
+
+    def _count_still(self, here: np.ndarray, goal: np.ndarray, moving: np.ndarray) -> int:
+        """Count a plan for each moving robot away from its goal on the cell it stood on at
+        the last plan (the others start again from 0); return how many have counted
+        ``still_plans`` plans."""
+        here = np.asarray(here, dtype=np.int64)
+        kept = moving & (here != np.asarray(goal, dtype=np.int64))
+        if self.still is None or self._cells is None or len(self._cells) != len(here):
+            self.still = np.zeros(len(here), dtype=np.int64)  # a new fleet: nothing seen
+            kept[:] = False
+        else:
+            kept &= here == self._cells
+        self.still = np.where(kept, self.still + 1, 0)
+        self._cells = here.copy()
+        return int((self.still >= self.still_plans).sum())
