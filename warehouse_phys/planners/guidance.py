@@ -388,8 +388,7 @@ class GuidedPIBT:
         repair_depth: The repair's window [steps] (its operations' actions, 1..4) where the
             plan is one-step PIBT's; over operations it is theirs.
         hand_over_on_stall: Over operations, plan one step unrepaired for good once the
-            fleet stalls or its robots stand still (:attr:`stall_watch`; a jam PIBT's
-            swap undoes); default True.
+            fleet stalls or stands still (:attr:`stall_watch`: PIBT's swap undoes a jam).
 
     Raises:
         ValueError: for ``operations`` or ``repair`` with four-direction robots, or
@@ -465,7 +464,7 @@ class GuidedPIBT:
         n = len(cells)
         present = np.ones(n, dtype=bool) if present is None else np.asarray(present, bool)
         movable = present.copy() if movable is None else np.asarray(movable, bool) & present
-        here = cells[:, 0] * cols + cells[:, 1]
+        here, goal = cells[:, 0] * cols + cells[:, 1], goals[:, 0] * cols + goals[:, 1]
         facing = None
         if self.pibt.turning and headings is not None:
             headings = np.asarray(headings)
@@ -475,7 +474,6 @@ class GuidedPIBT:
             facing = HEADING_MOVES[headings.astype(np.int64)]
         if self.repair is not None:
             self.repair.deadline = deadline
-        goal = goals[:, 0] * cols + goals[:, 1]
         values = self.guidance.update(here, goal, movable, self.pibt.distances,
                                       here[present & ~movable], facing, deadline)  # fmt: skip
         if self.operations is not None:
@@ -485,8 +483,8 @@ class GuidedPIBT:
                                               beside_cost=self.operations.depth + 1.0)  # fmt: skip
             actions = self.operations.plan(cells, goals, movable, present, headings=headings,
                                            cell_values=local, repair=self.repair)  # fmt: skip
-            if self.stall_watch is not None and self.stall_watch.observe(actions, movable,
-                                                                         here, goal):  # fmt: skip
+            watch = self.stall_watch
+            if watch is not None and watch.observe(actions, movable, here, goal):
                 self.drop_operations_and_repair()  # from the next plan on
             return actions
         actions = self.pibt.plan(cells, goals, movable, present, headings=headings,
