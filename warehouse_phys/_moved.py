@@ -74,6 +74,7 @@ MOVED: dict[str, str] = {
     "apps.simulate_async": "apps.simulate.on_ticks",
     "envs.fleet_actions": "envs.fleet.actions",
     "envs.fleet_observations": "envs.fleet.observations",
+    "planners.guidance_learning": "planners.lanes.learned",
     **{f"rules.{name}": home for name, home in RULES.items()},
 }
 

@@ -2,7 +2,6 @@
 deterministic and bounded, and it steers robots apart where plain PIBT meets head-on."""
 
 import hashlib
-import itertools
 import json
 import math
 import subprocess
@@ -17,9 +16,10 @@ from tests.conftest import ROOT
 from tests.world.random_floors import shelf_layout
 from warehouse_phys.envs import fleet
 from warehouse_phys.planners import traffic_flow
-from warehouse_phys.planners.guidance import GuidedPIBT, TrafficGuidance
+from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.guidance_config import GuidanceConfig
 from warehouse_phys.planners.pibt import PIBT
+from warehouse_phys.planners.traffic_guidance import TrafficGuidance
 from warehouse_phys.rl.fleet_planners import guided_pibt_policy, planner_policy
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import resolve_turning_moves
@@ -180,114 +180,6 @@ def test_guided_runs_are_the_same_in_another_process():
     assert here[0] == 0
 
 
-def test_robots_heading_opposite_ways_get_aisles_of_their_own():
-    """Two robots cross the two-aisle floor in opposite directions: the second's guide
-    path takes the other aisle (the first's would cost it contraflow), where shortest
-    paths share the top one."""
-    grid = WarehouseGrid.from_layout(TWO_AISLES)
-    here = np.array([0 * 8 + 0, 0 * 8 + 7])
-    goal = np.array([0 * 8 + 7, 0 * 8 + 0])
-    for config, apart in ((GuidanceConfig(), True), (GuidanceConfig(contraflow_weight=0), False)):
-        guidance = TrafficGuidance(grid, config)
-        guidance.update(here, goal, np.ones(2, dtype=bool))
-        paths = guidance._paths
-        rows = [guidance._cell_row[paths.pool[paths.start[i] : paths.start[i] + paths.moves[i]
-                                              + 1]] for i in range(2)]  # fmt: skip
-        assert rows[0].max() == 0  # the first takes the shortest, along the top
-        assert (rows[1].max() == 2) == apart
-
-
-@pytest.mark.parametrize(
-    ("turn_contraflow_weight", "facing", "apart"),
-    [(2.0, [2, 0], True), (None, [2, 0], False), (2.0, None, False)],
-)
-def test_contraflow_costs_turning_robots_more(turn_contraflow_weight, facing, apart):
-    """The same crossing, with contraflow at a tenth of a move: a four-direction robot's guide
-    path shares the top aisle, and so does a turning robot's priced as one's; with a
-    turning robot's own weight (``turn_contraflow_weight``, 2 by default) the second
-    takes the bottom aisle, turns and all, rather than meet the first head-on."""
-    grid = WarehouseGrid.from_layout(TWO_AISLES)
-    config = GuidanceConfig(contraflow_weight=0.1, turn_contraflow_weight=turn_contraflow_weight,
-                            turn_lane_paths=0)  # fmt: skip
-    guidance = TrafficGuidance(grid, config)
-    guidance.update(np.array([0, 7]), np.array([7, 0]), np.ones(2, dtype=bool),
-                    facing=None if facing is None else np.array(facing))  # fmt: skip
-    paths = guidance._paths
-    rows = guidance._cell_row[paths.pool[paths.start[1] : paths.start[1] + paths.moves[1] + 1]]
-    assert (rows.max() == 2) == apart
-
-
-@pytest.mark.parametrize(
-    ("lane_paths", "facing", "kept_to_the_lanes"),
-    [(2, [2], True), (1, [2], True), (0, [2], False), (2, None, False)],
-)
-def test_turning_robots_keep_to_the_one_way_lanes(lane_paths, facing, kept_to_the_lanes):
-    """On the two-aisle floor the lanes run west along the top aisle, south, east along the
-    bottom and north (:func:`~warehouse_phys.planners.lanes.one_way_lanes`). A turning robot
-    crossing from the top left to the top right goes round by the bottom aisle, 11 moves
-    and 3 turns, rather than drive 7 moves against the top aisle's lane; without lanes, or
-    as a four-direction robot (whose guidance lays none), it takes the top aisle. Its
-    flow holds the lanes' phantom paths besides its own path."""
-    grid = WarehouseGrid.from_layout(TWO_AISLES)
-    guidance = TrafficGuidance(grid, GuidanceConfig(turn_lane_paths=lane_paths))
-    facing = None if facing is None else np.array(facing)
-    guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=facing)
-    paths = guidance._paths
-    cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1]
-    assert (guidance._cell_row[cells].max() == 2) == kept_to_the_lanes
-    assert paths.moves[0] == (11 if kept_to_the_lanes else 7)
-    lanes = 0 if facing is None else lane_paths * 14  # 6 + 6 aisle cells, 2 at the ends
-    assert guidance.flow.sum() == lanes + paths.moves[0]
-    guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=facing)
-    assert guidance.flow.sum() == lanes + paths.moves[0]  # laid once
-
-
-def guide_path_turns(facing, turn_cost):
-    """The guide path of one robot facing move ``facing`` across an open 7 x 7 floor,
-    corner to corner, and how many quarter turns driving it takes."""
-    grid = WarehouseGrid.from_layout(["......."] * 7)
-    guidance = TrafficGuidance(grid, GuidanceConfig(turn_cost=turn_cost))
-    guidance.update(np.array([0]), np.array([48]), np.ones(1, dtype=bool), facing=facing)
-    paths = guidance._paths
-    cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1]
-    moves = [traffic_flow._move_of(guidance._graph, a, b) for a, b in itertools.pairwise(cells)]
-    turns = sum(1 for a, b in itertools.pairwise([int(facing[0]), *moves]) if a != b)
-    return len(moves), turns
-
-
-@pytest.mark.parametrize("facing", [0, 1, 2, 3])  # left, down, right, up
-def test_a_turning_robots_guide_path_turns_as_little_as_it_can(facing):
-    """Every shortest path across an open floor is as cheap to a four-direction robot;
-    a turning robot's guide path is still shortest, and turns the fewest times from the
-    way it faces: once when it faces down or right, twice when it faces away."""
-    moves, turns = guide_path_turns(np.array([facing]), 1.0)
-    assert moves == 12
-    assert turns == (1 if facing in (1, 2) else 2)
-    if facing == 2:  # searched as a four-direction robot's, it goes down first
-        assert guide_path_turns(np.array([facing]), None) == (12, 2)
-
-
-@pytest.mark.parametrize(("weight", "turns_at_the_corner"), [(0.0, True), (1.0, False)])
-def test_a_turn_where_guide_paths_pass_is_priced_by_their_traffic(weight, turns_at_the_corner):
-    """A robot facing right across an open 5 x 5 floor turns once, at the top right
-    corner; with ten guide paths leaving that corner and ``turn_traffic_weight=1`` a turn
-    there costs 11, and the robot turns twice elsewhere instead (moves stay free of the
-    traffic: vertex and contraflow weights 0)."""
-    grid = WarehouseGrid.from_layout(["....."] * 5)
-    config = GuidanceConfig(vertex_weight=0.0, contraflow_weight=0.0,
-                            turn_traffic_weight=weight)  # fmt: skip
-    guidance = TrafficGuidance(grid, config)
-    guidance.flow[4, 1] = 10  # ten guide paths leave the corner (0, 4) downwards
-    guidance.update(np.array([0]), np.array([24]), np.ones(1, dtype=bool), facing=np.array([2]))
-    paths = guidance._paths
-    cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1].tolist()
-    assert len(cells) == 9  # a shortest path either way
-    moves = [traffic_flow._move_of(guidance._graph, a, b) for a, b in itertools.pairwise(cells)]
-    turned_at = [cells[j] for j in range(1, len(moves)) if moves[j] != moves[j - 1]]
-    assert (turned_at == [4]) == turns_at_the_corner
-    assert len(turned_at) == (1 if turns_at_the_corner else 2)
-
-
 def test_golden_plans_on_the_two_aisle_floor():
     """Four robots, two each way, over the two-aisle floor: the guided plans, recorded.
     The top aisle's robots go right and the bottom one's left, meeting nobody head-on;
@@ -385,17 +277,6 @@ def test_candidate_values_of_nan_leave_pibt_as_it_was():
         valued = b.plan(cells, goals, candidate_values=np.full((3, 5), np.nan))
         np.testing.assert_array_equal(plain, valued)
         cells, _ = resolve_moves(grid, cells, plain)
-
-
-@pytest.mark.parametrize("facing", [np.array([4]), np.array([-1]), np.array([0, 1])])
-def test_a_facing_that_is_not_one_move_a_robot_is_refused_and_nothing_changes(facing):
-    grid = WarehouseGrid.from_layout(TWO_AISLES)
-    guidance = TrafficGuidance(grid, GuidanceConfig(turn_lane_paths=0))
-    with pytest.raises(ValueError, match="facing"):
-        guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=facing)
-    assert not guidance.flow.any()
-    guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=np.array([2]))
-    assert guidance.flow.sum() == 7
 
 
 @pytest.mark.parametrize("headings", [None, np.array([0, 4]), np.array([0, -1]), np.array([1])])

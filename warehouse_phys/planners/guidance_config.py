@@ -1,7 +1,7 @@
 """The guidance's configuration: how guide paths are priced, refreshed and bounded.
 
 :class:`GuidanceConfig` holds every knob of
-:class:`~warehouse_phys.planners.guidance.TrafficGuidance` (and so of
+:class:`~warehouse_phys.planners.traffic_guidance.TrafficGuidance` (and so of
 :class:`~warehouse_phys.planners.guidance.GuidedPIBT` and of the guided planners by name,
 :mod:`warehouse_phys.rl.fleet_planners`), a field each with its unit, and refuses a value
 out of range when it is made. What each does to the guide paths is the guidance's module
@@ -21,7 +21,7 @@ MAX_LANE_PATHS = 1000
 
 @dataclass(frozen=True)
 class GuidanceConfig:
-    """How :class:`~warehouse_phys.planners.guidance.TrafficGuidance` prices and refreshes
+    """How :class:`~warehouse_phys.planners.traffic_guidance.TrafficGuidance` prices and refreshes
     guide paths, each field checked when the configuration is made.
 
     Raises:
@@ -57,14 +57,14 @@ class GuidanceConfig:
     #: paths (0: none).
     floor_lane_paths: int = 0
     #: Lanes learned from the fleet's own traffic, for turning robots
-    #: (:class:`~warehouse_phys.planners.guidance_learning.TrafficLanes`): phantom guide
+    #: (:class:`~warehouse_phys.planners.lanes.learned.TrafficLanes`): phantom guide
     #: paths along the way most of a cell's traffic goes, seen by the contraflow alone
     #: (0: none).
     learned_lane_paths: int = 0
     #: Steps between two updates of the learned lanes.
     learn_period: int = 50
     #: Learned lanes to start from (:meth:`TrafficLanes.save
-    #: <warehouse_phys.planners.guidance_learning.TrafficLanes.save>`'s file, learned on
+    #: <warehouse_phys.planners.lanes.learned.TrafficLanes.save>`'s file, learned on
     #: the same floor); None: none.
     learned_lanes_file: str | None = None
     #: Whether robots follow their guide paths (else distances with a flow tie-break).

@@ -3,7 +3,7 @@ asked.
 
 :class:`GuidePaths` stores every robot's guide path in one pool of cells.
 
-:class:`~warehouse_phys.planners.guidance.TrafficGuidance` searches a guide path for each
+:class:`~warehouse_phys.planners.traffic_guidance.TrafficGuidance` searches a guide path for each
 robot that needs one, priced by the fleet's flow
 (:func:`~warehouse_phys.planners.traffic_flow.congestion_path`, compiled and free of
 Python's lock). :class:`GuideSearches` runs a *batch* of such searches against one flow:

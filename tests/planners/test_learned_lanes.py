@@ -11,7 +11,7 @@ from tests.planners.test_guidance import play
 from tests.world.random_floors import shelf_layout
 from warehouse_phys.envs import fleet
 from warehouse_phys.planners import graph_search
-from warehouse_phys.planners.guidance_learning import TrafficLanes, floor_digest
+from warehouse_phys.planners.lanes.learned import TrafficLanes, floor_digest
 from warehouse_phys.rl.fleet_planners import planner_policy
 from warehouse_phys.world.grid import Action
 

@@ -4,13 +4,14 @@ Two robots that meet head-on in a corridor one cell wide cannot pass: one must b
 and a turning robot must first turn round (two steps, while the robots behind it wait).
 Warehouses sign such aisles one way, alternating between neighbouring aisles, so that
 traffic each way has a lane near it. :func:`one_way_lanes` gives every corridor cell of a
-floor such a way; :class:`~warehouse_phys.planners.guidance.TrafficGuidance` lays
+floor such a way; :class:`~warehouse_phys.planners.traffic_guidance.TrafficGuidance` lays
 ``GuidanceConfig.turn_lane_paths`` phantom guide paths along each lane for turning
 robots, so that a guide path against a lane pays the contraflow of that many paths.
 
 A lane is a preference, not a rule: a robot may still drive against one when the way
 round costs more, and the traffic rules (:mod:`warehouse_phys.world.traffic`) are those
-of any floor.
+of any floor. Lanes can also be learned from the fleet's own traffic instead of the
+floor's shape (:mod:`warehouse_phys.planners.lanes.learned`).
 
 Like :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
 pygame.
