@@ -24,6 +24,14 @@ settings.load_profile("ci" if os.environ.get("CI") else "dev")
 ROOT = Path(__file__).resolve().parent.parent
 
 
+@pytest.fixture(autouse=True, scope="session")
+def sb3_logs_in_pytests_temporary_folder(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Stable-Baselines3 makes a log folder in the system's temporary folder at every
+    ``learn`` (``SB3-<time>``) unless ``SB3_LOGDIR`` names one: keep them in pytest's
+    (which it prunes), for the tests and the notebooks' kernels alike."""
+    os.environ.setdefault("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3_logs")))
+
+
 @pytest.fixture
 def run_python() -> Callable[..., str]:
     """Run a Python snippet in a fresh interpreter from the repository root; return its stdout.
