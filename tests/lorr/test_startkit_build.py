@@ -1,6 +1,8 @@
 """The kit built into a cache folder keyed by kit and interpreter, and what is missing said in
 one line (no build here: the tests that need one skip without it)."""
 
+import os
+
 import pytest
 
 from warehouse_phys.lorr.startkit import build
@@ -23,6 +25,9 @@ def test_the_cache_folder_is_outside_the_checkout_and_keyed_by_kit_and_interpret
     assert folder.parent == tmp_path / "cache" / "warehouse_phys"
     assert folder.name.startswith("startkit-3.1.0-py")
     assert build.cache_folder(one) == folder != build.cache_folder(two)
+    for source in (one / "src").rglob("*"):  # copied again: new times, the same sources
+        os.utime(source, (1.0, 1.0))
+    assert build.cache_folder(one) == folder
     (one / "src" / "driver.cpp").write_text("int main() { return 1; }\n")  # the kit changed
     assert build.cache_folder(one) != folder
     changed = build.cache_folder(one)

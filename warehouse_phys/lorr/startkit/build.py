@@ -6,8 +6,9 @@ folder is only read: ``cmake -S KIT -B CACHE/build -DCMAKE_BUILD_TYPE=Release
 -DBUILD_TESTS=OFF -DPYTHON_EXECUTABLE=<the base interpreter of this environment>``, then
 ``make lifelong MAPF``) into :func:`cache_folder`: ``$XDG_CACHE_HOME`` (else
 ``~/.cache``) ``/warehouse_phys/startkit-<kit version>-<python tag>-<key>``, the key a hash
-of the kit's path and sources and of the interpreter, so that another kit or interpreter
-gets a build of its own and an unchanged one is built once. A lock file keeps two
+of the kit's path, its sources' contents and the interpreter, so that another kit or
+interpreter gets a build of its own and an unchanged one is built once (copied again,
+its files' times new, it is still the same). A lock file keeps two
 processes from building one folder at once; a build that fails leaves its log
 (``build.log``) and no binary.
 
@@ -91,9 +92,9 @@ def cache_folder(kit: str | os.PathLike[str]) -> Path:
     digest.update(str(kit).encode())
     digest.update(str(base_interpreter()).encode())
     digest.update(sys.version.encode())
-    for path in _sources(kit):
-        stat = path.stat()
-        digest.update(f"{path.relative_to(kit)}:{stat.st_size}:{stat.st_mtime_ns}".encode())
+    for path in _sources(kit):  # contents, not times: a kit copied again is the same kit
+        digest.update(f"{path.relative_to(kit)}:".encode())
+        digest.update(hashlib.sha256(path.read_bytes()).digest())
     root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     tag = f"py{sys.version_info[0]}{sys.version_info[1]}"
     return root / "warehouse_phys" / f"startkit-{kit_version(kit)}-{tag}-{digest.hexdigest()[:12]}"
