@@ -58,6 +58,7 @@ from warehouse_phys.planners.distances import DistanceMaps
 from warehouse_phys.planners.graph_search import move_graph
 from warehouse_phys.rl.fleet_planners import pibt_policy
 from warehouse_phys.world.layouts import make_grid
+from warehouse_phys.world.maps import random_floor
 
 SHARED_MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps"
 #: The maps run, by file stem: the issue's list (the field's big maps) and ours.
@@ -171,10 +172,9 @@ class ReferencePIBT:
 
 
 def generated_floor(path: Path, side: int = 2048, density: float = 0.1) -> Path:
-    """A MovingAI map of ``side`` x ``side`` cells, ``density`` of them obstacles (seed 0)."""
-    blocked = np.random.default_rng(0).random((side, side)) < density
-    blocked[0, 0] = False
-    rows = ["".join("@" if b else "." for b in row) for row in blocked]
+    """The package's random floor (:func:`~warehouse_phys.world.maps.random_floor`, seed 0)
+    of ``side`` x ``side`` cells, ``density`` of them obstacles, as a MovingAI map."""
+    rows = [row.replace("#", "@") for row in random_floor(side, side, density)]
     text = f"type octile\nheight {side}\nwidth {side}\nmap\n" + "\n".join(rows) + "\n"
     atomic_write_text(path, text)
     return path
