@@ -39,6 +39,7 @@ from warehouse_phys.envs.async_arguments import (
 )
 from warehouse_phys.envs.checks import checked_reset_options
 from warehouse_phys.envs.fleet.actions import aec_form
+from warehouse_phys.envs.fleet.setup import MAX_PHYSICS_ROBOTS
 from warehouse_phys.execution.delays import DelayConfig
 from warehouse_phys.execution.runner import Execution, TickOutcome
 from warehouse_phys.execution.ticks import (
@@ -53,7 +54,6 @@ from warehouse_phys.physics.batched import BatchedPhysicsWorld
 from warehouse_phys.physics.config import (
     PhysicsConfig,
     check_physics_robots,
-    max_physics_robots,
     physics_config_from,
 )
 from warehouse_phys.physics.regions import check_threads
@@ -71,10 +71,6 @@ from warehouse_phys.world.placement import (
 
 __all__ = ["DEFAULT_TICKS", "GO", "MAX_PHYSICS_ROBOTS", "STOP", "AsyncFleetEnv", "env",
            "parallel_env"]  # fmt: skip
-
-#: Most robots the physics twin takes: what this machine's memory holds
-#: (:func:`~warehouse_phys.physics.config.max_physics_robots`).
-MAX_PHYSICS_ROBOTS = max_physics_robots()
 
 #: Ticks an episode lasts by default.
 DEFAULT_TICKS = 1000
