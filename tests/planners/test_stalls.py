@@ -5,12 +5,14 @@ from hypothesis import strategies as st
 
 from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.pibt.stalls import (
+    CALM_PLANS,
     STALL_FRACTION,
     STALL_WINDOW,
     STILL_PLANS,
     STILL_SHARE,
     StallWatch,
 )
+from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import TurnAction, turning_moves
 
@@ -33,7 +35,7 @@ def test_a_fleet_that_drives_half_as_much_as_it_did_has_stalled():
     assert said == [False, False, False, True]
     assert watch.stalled
     assert not watch.observe(plan_with(0.6), moving)  # a plan that is not a stall
-    assert watch.stalled  # once stalled, stalled
+    assert watch.stalled  # stalled until the watch sees the jam cleared
 
 
 def test_only_the_moving_robots_count_and_a_plan_without_them_says_nothing():
@@ -55,12 +57,14 @@ def test_a_fleet_whose_forward_share_never_falls_is_never_stalled(shares, window
 
 def test_the_watch_refuses_a_bad_window_or_fraction():
     assert (STALL_WINDOW, STALL_FRACTION) == (20, 0.5)
-    assert (STILL_PLANS, STILL_SHARE) == (50, 0.05)
+    assert (STILL_PLANS, STILL_SHARE, CALM_PLANS) == (50, 0.05, 50)
     for window in (0, 1.5, True):
         with pytest.raises(ValueError, match="window must be an integer >= 1"):
             StallWatch(window=window)
         with pytest.raises(ValueError, match="still_plans must be an integer >= 1"):
             StallWatch(still_plans=window)
+        with pytest.raises(ValueError, match="calm_plans must be an integer >= 1"):
+            StallWatch(calm_plans=window)
     for fraction in (-0.1, 1.5, float("nan")):
         with pytest.raises(ValueError, match="fraction must be 0 to 1"):
             StallWatch(fraction=fraction)
@@ -123,30 +127,34 @@ def test_robots_that_keep_moving_are_never_still(moves, still_plans, steps):
 
 
 def dead_end_run(
-    hand_over: bool, steps: int = 80, watch: StallWatch | None = None
+    hand_over: bool,
+    steps: int = 80,
+    watch: StallWatch | None = None,
+    repair: WindowRepair | None = None,
 ) -> tuple[np.ndarray, bool]:
     """robot_0 drives south to the mouth (1, 1) of the dead end (2, 1), its goal, where
     robot_1 stands facing out with a goal outside; planned over operations (the planner's
-    stall watch replaced by ``watch``, if given). Returns which robots arrived and whether
-    the planner handed over."""
+    stall watch replaced by ``watch``, if given; repaired by ``repair``, if given).
+    Returns which robots arrived and whether the planner handed over at any plan."""
     grid = WarehouseGrid.from_layout(["....", "....", "#.##"])
     cols = grid.cols
     cells = np.array([(0, 1), (2, 1)])
     goals = np.array([(2, 1), (0, 3)])
     headings = np.array([1, 3])
     planner = GuidedPIBT(grid, seed=0, moves="rotate", operations=3,
-                         hand_over_on_stall=hand_over)  # fmt: skip
+                         hand_over_on_stall=hand_over, repair=repair, repair_depth=2)  # fmt: skip
     if watch is not None:
         planner.stall_watch = watch
-    arrived = np.zeros(2, dtype=bool)
+    arrived, handed = np.zeros(2, dtype=bool), False
     for _ in range(steps):
         actions = planner.plan(cells, goals, ~arrived, headings=headings)
+        handed |= planner.operations is None
         grants = turning_moves(grid, cells[:, 0] * cols + cells[:, 1], headings, actions,
                                arrived)  # fmt: skip
         assert not grants.refused.any()
         cells, headings = np.column_stack(np.divmod(grants.ends, cols)), grants.headings
         arrived |= (cells == goals).all(axis=1)
-    return arrived, planner.stall_watch is not None and planner.stall_watch.stalled
+    return arrived, handed
 
 
 def test_a_planner_over_operations_hands_a_jam_at_a_dead_end_over_to_pibt():
@@ -172,3 +180,101 @@ def test_robots_still_in_a_jam_hand_the_planner_over_too():
     assert not stalled  # not still for long enough in 80 plans
     assert not arrived.any()
     assert watch.still.max() == 79
+
+
+def test_a_repaired_planner_hands_over_unrepaired_and_back_repaired():
+    """Handed over, the planner plans one step a step without its repair (repaired
+    one-step plans jammed dense random floors); handed back, it plans over the same
+    operations with the same repair. A planner that never had operations has nothing to
+    hand over or back."""
+    arrived, handed = dead_end_run(hand_over=True, repair=WindowRepair(iterations=0))
+    assert handed
+    assert arrived.all()
+    grid = WarehouseGrid.from_layout(["...."])
+    repair = WindowRepair(iterations=50)
+    planner = GuidedPIBT(grid, moves="rotate", operations=3, repair=repair)
+    operations = planner.operations
+    assert planner._window is operations
+    planner.hand_over()
+    assert planner.operations is None
+    assert planner.repair is None
+    assert planner._window is None
+    planner.hand_back()
+    assert planner.operations is operations
+    assert planner.repair is repair
+    assert planner._window is operations
+    planner.hand_back()  # nothing handed over: nothing changes
+    assert planner.operations is operations
+    one_step = GuidedPIBT(grid, moves="rotate", repair=repair)
+    window = one_step._window
+    one_step.hand_over()
+    assert one_step.operations is None
+    assert one_step.repair is repair
+    assert one_step._window is window
+
+
+def test_a_jam_has_cleared_after_calm_plans_with_no_robot_still_and_the_watch_starts_anew():
+    """Two robots of ten stand still (2 plans on their cells make them still): the jam
+    holds; once they move, ``calm_plans`` (4) plans in a row with none still clear it,
+    and the watch is as new. Robots still again restart the count."""
+    watch = StallWatch(window=2, still_plans=2, still_share=0.1, calm_plans=4)
+    n, goal, moving = 10, np.full(10, -1), np.ones(10, dtype=bool)
+    here = np.arange(n) * 10
+    stand = np.r_[np.zeros(2, np.int64), np.ones(n - 2, np.int64)]
+    for _ in range(6):
+        here = here + stand
+        watch.observe(plan_with(0.8, n), moving, here, goal)
+    assert watch.stalled
+    said = []
+    for step in [stand] * 3 + [1] * 2 + [stand] + [0] * 2 + [1] * 4:
+        here = here + step  # two stand; all move; two stand, then all; all move
+        said.append(watch.cleared(here, goal, moving))
+    assert said == [False] * 11 + [True]
+    assert not watch.stalled
+    assert watch.best == 0.0
+    assert watch.still is None
+
+
+@given(st.integers(1, 30), st.integers(1, 12), st.integers(1, 60))
+def test_a_fleet_that_keeps_moving_clears_after_exactly_calm_plans(n, calm_plans, plans):
+    watch = StallWatch(calm_plans=calm_plans, still_plans=1)
+    here, goal, moving = np.arange(n), np.full(n, -1), np.ones(n, dtype=bool)
+    said = []
+    for _ in range(plans):
+        here = here + n
+        said.append(watch.cleared(here, goal, moving))
+    expected = [(k + 1) % calm_plans == 0 for k in range(plans)]
+    assert said == expected
+
+
+def test_once_the_dead_end_clears_the_planner_plans_over_its_operations_again():
+    """The dead-end jam handed over and cleared (both robots home, none still): the planner
+    hands back the very operations it handed over, its repair over them again, and the
+    stall watch watches them afresh."""
+    grid = WarehouseGrid.from_layout(["....", "....", "#.##"])
+    cols = grid.cols
+    cells, goals = np.array([(0, 1), (2, 1)]), np.array([(2, 1), (0, 3)])
+    headings = np.array([1, 3])
+    planner = GuidedPIBT(grid, seed=0, moves="rotate", operations=3,
+                         repair=WindowRepair(iterations=0))  # fmt: skip
+    operations = planner.operations
+    arrived, modes = np.zeros(2, dtype=bool), []
+    for _ in range(160):
+        actions = planner.plan(cells, goals, ~arrived, headings=headings)
+        modes.append(planner.operations is not None)
+        grants = turning_moves(grid, cells[:, 0] * cols + cells[:, 1], headings, actions,
+                               arrived)  # fmt: skip
+        cells, headings = np.column_stack(np.divmod(grants.ends, cols)), grants.headings
+        arrived |= (cells == goals).all(axis=1)
+    assert arrived.all()
+    over = modes.index(False)
+    back = modes.index(True, over)
+    assert back - over >= CALM_PLANS  # at least calm_plans plans one step a step
+    assert all(modes[back:])
+    assert planner.operations is operations
+    assert planner._window is operations
+    assert not planner.stall_watch.stalled
+    planner.drop_operations_and_repair()  # short of time: one step for good, never back
+    for _ in range(CALM_PLANS + 5):
+        planner.plan(cells, goals, np.zeros(2, dtype=bool), headings=headings)
+    assert planner.operations is None

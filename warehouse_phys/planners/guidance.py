@@ -8,9 +8,9 @@ one-step resolution (the same :class:`~warehouse_phys.planners.pibt.PIBT`, throu
 ``candidate_values``). For turning robots it can plan over operations
 (:mod:`~warehouse_phys.planners.operations`), repair each plan over a window
 (:mod:`~warehouse_phys.planners.repair`), and hand a stalled fleet over to one-step PIBT
-(:mod:`~warehouse_phys.planners.pibt.stalls`). Deterministic for a seed and the same
-inputs, as long as the guidance's ``time_limit`` is not reached. Like the other rules, it
-imports neither gymnasium, pymunk nor pygame.
+and back once its jam has cleared (:mod:`~warehouse_phys.planners.pibt.stalls`).
+Deterministic for a seed and the same inputs, as long as the guidance's ``time_limit``
+is not reached. Like the other rules, it imports neither gymnasium, pymunk nor pygame.
 """
 
 from __future__ import annotations
@@ -58,8 +58,10 @@ class GuidedPIBT:
             None (default): no repair.
         repair_depth: The repair's window [steps] (its operations' actions, 1..4) where the
             plan is one-step PIBT's; over operations it is theirs.
-        hand_over_on_stall: Over operations, plan one step unrepaired for good once the
-            fleet stalls or stands still (:attr:`stall_watch`: PIBT's swap undoes a jam).
+        hand_over_on_stall: Over operations, plan one step a step, unrepaired, once the
+            fleet stalls or stands still (:attr:`stall_watch`: PIBT's swap undoes a jam;
+            :meth:`hand_over`), and over operations again, repaired as before, once the
+            jam has cleared (:meth:`hand_back`).
 
     Raises:
         ValueError: for ``operations`` or ``repair`` with four-direction robots, or
@@ -102,11 +104,30 @@ class GuidedPIBT:
             self._window = self.operations or OperationPIBT(
                 grid, distances=self.pibt.distances, corner_follows=corner_follows, seed=seed,
                 depth=repair_depth)  # fmt: skip
+        #: The operations and the repair handed over, while one-step PIBT plans.
+        self._handed: tuple[OperationPIBT, WindowRepair | None] | None = None
+
+    def hand_over(self) -> None:
+        """Plan one action a step, unrepaired, from the next plan on (a stalled fleet over
+        operations: PIBT's swap undoes a jam they cannot; one-step plans repaired jammed
+        dense random floors), until the stall watch sees the jam cleared
+        (:meth:`hand_back`). The guide paths and PIBT's state carry on. Without
+        operations, nothing changes."""
+        if self.operations is not None:
+            self._handed = (self.operations, self.repair)
+            self.operations = self.repair = self._window = None
+
+    def hand_back(self) -> None:
+        """Plan over the operations handed over again, repaired as they were, from the
+        next plan on."""
+        if self._handed is not None:
+            (self.operations, self.repair), self._handed = self._handed, None
+            self._window = self.operations if self.repair is not None else None
 
     def drop_operations_and_repair(self) -> None:
         """Plan one action a step from now on, unrepaired (a caller short of time: the
         guide paths and PIBT's state carry on)."""
-        self.operations = self.repair = self._window = None
+        self.operations = self.repair = self._window = self._handed = None
 
     def plan(
         self,
@@ -147,6 +168,9 @@ class GuidedPIBT:
             self.repair.deadline = deadline
         values = self.guidance.update(here, goal, movable, self.pibt.distances,
                                       here[present & ~movable], facing, deadline)  # fmt: skip
+        watch = self.stall_watch
+        if self._handed is not None and watch is not None and watch.cleared(here, goal, movable):
+            self.hand_back()
         if self.operations is not None:
             # A cell beside the guide path costs more than an operation's moves: a robot
             # leaves its path (and needs a new one) only when no operation along it fits.
@@ -154,9 +178,8 @@ class GuidedPIBT:
                                               beside_cost=self.operations.depth + 1.0)  # fmt: skip
             actions = self.operations.plan(cells, goals, movable, present, headings=headings,
                                            cell_values=local, repair=self.repair)  # fmt: skip
-            watch = self.stall_watch
             if watch is not None and watch.observe(actions, movable, here, goal):
-                self.drop_operations_and_repair()  # from the next plan on
+                self.hand_over()  # from the next plan on
             return actions
         actions = self.pibt.plan(cells, goals, movable, present, headings=headings,
                                  candidate_values=values)  # fmt: skip

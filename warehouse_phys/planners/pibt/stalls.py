@@ -1,5 +1,5 @@
-"""When a planner over operations should hand its fleet over to PIBT: once its robots stop
-driving forward.
+"""When a planner over operations should hand its fleet over to PIBT (once its robots stop
+driving forward) and when back (once its jam has cleared).
 
 PIBT over operations (:class:`~warehouse_phys.planners.operations.OperationPIBT`) has no
 swap operation: on floors full of dead ends (the LoRR main rounds' random floors) two
@@ -24,6 +24,12 @@ It watches two measures; either one is a stall:
   fell, against none on the start kit's random-example_400 over 1,000 steps and 2-5 %
   there on the kit's ticks with delays. Hence 5 %.
 
+A jam that one-step PIBT has undone leaves the fleet better off over operations again
+(2024 RANDOM-02 and -03, ``guided-ops-repair``: 1.635 and 1.587 tasks a step handing
+back, against 1.498 and 1.490 handing over for good), so the watch also says when the
+jam has cleared: no robot still for ``calm_plans`` (50) plans in a row
+(:meth:`StallWatch.cleared`), and the planner hands back.
+
 Like :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
 pygame.
 """
@@ -44,6 +50,8 @@ STALL_FRACTION = 0.5
 STILL_PLANS = 50
 #: The share of the moving robots above which still robots are a stall.
 STILL_SHARE = 0.05
+#: Plans in a row with no robot still after which a stalled fleet's jam has cleared [plans].
+CALM_PLANS = 50
 
 
 class StallWatch:
@@ -52,16 +60,18 @@ class StallWatch:
     ``fraction`` of the best such average so far; or, where the plans come with the
     robots' cells and goals, more than ``still_share`` of the moving robots away from
     their goals on the cells they stood on ``still_plans`` plans before and at every
-    plan since. O(N) a plan, O(N + ``window``) memory.
+    plan since. Handed over, the fleet is watched for its jam to clear (:meth:`cleared`).
+    O(N) a plan, O(N + ``window``) memory.
 
     Args:
         window: Plans averaged over (>= 1).
         fraction: Of the best average so far, 0 to 1.
         still_plans: Plans a robot keeps its cell before it counts as still (>= 1).
         still_share: Of the moving robots, 0 to 1.
+        calm_plans: Plans in a row with no robot still before a jam has cleared (>= 1).
 
     Raises:
-        ValueError: for a window or ``still_plans`` below 1, or a fraction or
+        ValueError: for a window, ``still_plans`` or ``calm_plans`` below 1, or a fraction or
             ``still_share`` outside 0..1.
     """
 
@@ -72,8 +82,10 @@ class StallWatch:
         *,
         still_plans: int = STILL_PLANS,
         still_share: float = STILL_SHARE,
+        calm_plans: int = CALM_PLANS,
     ) -> None:
-        for name, value in (("window", window), ("still_plans", still_plans)):
+        for name, value in (("window", window), ("still_plans", still_plans),
+                            ("calm_plans", calm_plans)):  # fmt: skip
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         for name, value in (("fraction", fraction), ("still_share", still_share)):
@@ -83,14 +95,16 @@ class StallWatch:
         self.fraction = float(fraction)
         self.still_plans = still_plans
         self.still_share = float(still_share)
+        self.calm_plans = calm_plans
         self._shares: deque[float] = deque(maxlen=window)
         #: The best average over ``window`` plans so far.
         self.best = 0.0
         #: Each robot's plans on its cell away from its goal so far (None: no cells yet).
         self.still: np.ndarray | None = None
         self._cells: np.ndarray | None = None
-        #: Whether the fleet has stalled (once it has, it stays so).
+        #: Whether the fleet has stalled (until :meth:`cleared` says its jam has cleared).
         self.stalled = False
+        self._calm = 0
 
     def observe(
         self,
@@ -101,8 +115,8 @@ class StallWatch:
     ) -> bool:
         """Take one plan (turning actions, ``(N,)``; ``movable``: the robots it moves;
         optionally ``here`` and ``goal``, each robot's cell and goal as cell indices,
-        ``(N,)``) and say whether the fleet has stalled on it (:attr:`stalled` keeps the
-        first time)."""
+        ``(N,)``) and say whether the fleet has stalled on it (:attr:`stalled` keeps it
+        until :meth:`cleared`)."""
         moving = np.asarray(movable, dtype=bool)
         count = int(moving.sum())
         still = here is not None and goal is not None and self._count_still(here, goal, moving)
@@ -117,6 +131,21 @@ class StallWatch:
             stalled |= average < self.fraction * self.best
         self.stalled |= stalled
         return stalled
+
+    def cleared(self, here: np.ndarray, goal: np.ndarray, movable: np.ndarray) -> bool:
+        """Take one plan of a stalled fleet handed over (each robot's cell and goal as cell
+        indices, ``(N,)``; ``movable``: the robots planned) and say whether its jam has
+        cleared: no moving robot still (as :meth:`observe` counts them) at each of the
+        last ``calm_plans`` plans. Once it has, the watch starts again as new, for the
+        planner handed back (not :attr:`stalled`, no best share, no robot still)."""
+        moving = np.asarray(movable, dtype=bool)
+        self._calm = 0 if self._count_still(here, goal, moving) else self._calm + 1
+        if self._calm < self.calm_plans:
+            return False
+        self._shares.clear()
+        self.best, self.stalled, self._calm = 0.0, False, 0
+        self.still = self._cells = None
+        return True
 
     def _count_still(self, here: np.ndarray, goal: np.ndarray, moving: np.ndarray) -> int:
         """Count a plan for each moving robot away from its goal on the cell it stood on at
