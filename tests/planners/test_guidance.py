@@ -121,6 +121,33 @@ def test_plans_are_granted_and_the_flow_is_what_the_paths_have_left(rows, cols, 
             np.testing.assert_array_equal(guidance.flow, flow_of_paths(guidance))
 
 
+@pytest.mark.parametrize("name", ["guided-ops-repair", "guided-repair"])
+def test_a_turning_fleets_flow_is_its_lanes_and_what_its_paths_have_left(name):
+    """A lifelong turning fleet with the repair (over operations or one step at a time),
+    its one-way lanes laid, robots pushed off their paths, new goals at every delivery,
+    and the one over operations handed over to unrepaired one-step plans at step 40 and
+    back at step 80 (for the other, both change nothing): the flow
+    stays the lanes' phantom paths plus the moves left on the stored guide paths, step
+    after step (a path dropped without its flow would leave phantom traffic that grows
+    over a long run)."""
+    env = fleet.parallel_env(num_robots=60, layout="kiva-33-46", starts="random",
+                             moves="rotate", on_delivery="new_package", max_cycles=120)  # fmt: skip
+    policy = planner_policy(name, 3)
+    observations, infos = env.reset(seed=3)
+    for step in range(120):
+        if step == 40:
+            policy.planner.hand_over()
+        if step == 80:
+            policy.planner.hand_back()
+        observations, _, _, _, infos = env.step(policy(env, observations, infos))
+        guidance = policy.planner.guidance
+        lanes = np.zeros_like(guidance.flow)
+        np.add.at(lanes, (guidance._lane_columns, guidance._lane_moves),
+                  guidance.config.turn_lane_paths)  # fmt: skip
+        np.testing.assert_array_equal(guidance.flow, lanes + flow_of_paths(guidance))
+    assert lanes.any()  # the floor has one-cell corridors, so lanes were laid
+
+
 def test_without_any_guidance_the_plan_is_plain_pibts():
     """No search allowed (a zero time limit, or none allowed): every robot is valued by
     PIBT's distances, and the plans are plain PIBT's for the same seed, bit for bit."""
