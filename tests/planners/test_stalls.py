@@ -6,6 +6,7 @@ from hypothesis import strategies as st
 from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.pibt.stalls import (
     CALM_PLANS,
+    CALM_SHARE,
     STALL_FRACTION,
     STALL_WINDOW,
     STILL_PLANS,
@@ -57,7 +58,7 @@ def test_a_fleet_whose_forward_share_never_falls_is_never_stalled(shares, window
 
 def test_the_watch_refuses_a_bad_window_or_fraction():
     assert (STALL_WINDOW, STALL_FRACTION) == (20, 0.5)
-    assert (STILL_PLANS, STILL_SHARE, CALM_PLANS) == (50, 0.05, 50)
+    assert (STILL_PLANS, STILL_SHARE, CALM_PLANS, CALM_SHARE) == (50, 0.05, 50, 0.001)
     for window in (0, 1.5, True):
         with pytest.raises(ValueError, match="window must be an integer >= 1"):
             StallWatch(window=window)
@@ -70,6 +71,8 @@ def test_the_watch_refuses_a_bad_window_or_fraction():
             StallWatch(fraction=fraction)
         with pytest.raises(ValueError, match="still_share must be 0 to 1"):
             StallWatch(still_share=fraction)
+        with pytest.raises(ValueError, match="calm_share must be 0 to 1"):
+            StallWatch(calm_share=fraction)
 
 
 def test_robots_still_away_from_their_goals_are_a_stall_the_forward_share_misses():
@@ -245,6 +248,26 @@ def test_a_fleet_that_keeps_moving_clears_after_exactly_calm_plans(n, calm_plans
         said.append(watch.cleared(here, goal, moving))
     expected = [(k + 1) % calm_plans == 0 for k in range(plans)]
     assert said == expected
+
+
+@pytest.mark.parametrize(
+    ("n", "standing", "clears"), [(2000, 2, True), (2000, 3, False), (999, 1, False), (10, 0, True)]
+)
+def test_a_jam_has_cleared_with_a_few_robots_still_in_a_large_fleet_and_none_in_a_small(
+    n, standing, clears
+):
+    """At most ``calm_share`` (0.1 %) of the moving robots may stand still in a jam that
+    has cleared: two of 2,000 (a robot or two stuck for good in a fleet of thousands does
+    not keep it handed over for the rest of the run), not three; in a fleet under 1,000
+    robots none may."""
+    watch = StallWatch(still_plans=1, calm_plans=5)
+    here, goal, moving = np.arange(n), np.full(n, -1), np.ones(n, dtype=bool)
+    step = np.r_[np.zeros(standing, np.int64), np.full(n - standing, n, np.int64)]
+    said = []
+    for _ in range(6):
+        here = here + step
+        said.append(watch.cleared(here, goal, moving))
+    assert said == [False] * 4 + [clears] + [False]  # cleared at the 5th, or never
 
 
 def test_once_the_dead_end_clears_the_planner_plans_over_its_operations_again():
