@@ -261,13 +261,16 @@ def test_the_scheduler_is_chosen_by_name_and_only_for_an_instance(tmp_path, caps
     from warehouse_phys.lorr.instances import write_instance
     from warehouse_phys.lorr.scheduling import least_makespan
     from warehouse_phys.lorr.scheduling_assignment import AssignmentScheduler
+    from warehouse_phys.lorr.station_cap import STATION_CAP
 
     path = write_instance(small_instance("scheduler", robots=4), tmp_path / "w.json")
-    for argv, rematch in (([], True), (["--scheduler", "rematch"], True),
-                          (["--scheduler", "assignment"], False)):  # fmt: skip
+    for argv, rematch, cap in (([], True, None), (["--scheduler", "rematch"], True, None),
+                               (["--scheduler", "rematch-capped"], True, STATION_CAP),
+                               (["--scheduler", "assignment"], False, None)):  # fmt: skip
         env, _ = _setup(build_parser().parse_args(["--instance", str(path), *argv]))
         assert isinstance(env.errands.scheduler, AssignmentScheduler)
         assert env.errands.scheduler.rematch is rematch
+        assert env.errands.scheduler.station_cap == cap
     env, _ = _setup(build_parser().parse_args(["--instance", str(path), "--scheduler",
                                                "makespan"]))  # fmt: skip
     assert env.errands.scheduler is least_makespan

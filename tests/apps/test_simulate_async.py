@@ -179,6 +179,7 @@ def test_replayed_delays_must_come_from_an_output_file_of_the_instance(tmp_path,
     [
         ("instance", ["--policy", "shortest"], "--policy shortest: a run on ticks"),
         ("instance", ["--scheduler", "assignment"], "the entry's assignment pairs again"),
+        ("instance", ["--scheduler", "rematch-capped"], "entry's scheduler has no station cap"),
         ("floor", ["--on-delivery", "park", "--p-delay", "0.1"], "is lifelong (new_package)"),
         ("floor", ["--delay-seed", "3"], "--delay-seed needs delays: give --p-delay too"),
         ("floor", ["--p-delay", "nan"], "expected a chance from 0 to 1, got nan"),

@@ -155,13 +155,14 @@ def test_schedulers_by_name_and_bad_settings():
     seed=st.integers(0, 2**16),
     name=st.sampled_from(["guided", "guided-repair"]),
     rematch=st.booleans(),
+    cap=st.sampled_from([None, 1]),
 )
 def test_a_turning_fleet_scheduled_by_it_is_granted_every_move_and_replays(
-    rows, cols, shelf_bits, robots, seed, name, rematch
+    rows, cols, shelf_bits, robots, seed, name, rematch, cap
 ):
     """A 2024 instance on a random floor (two-stop tasks), its tasks handed out by the
-    assignment, rematching or not: traffic refuses no planned move, and the same seed
-    plays the same run."""
+    assignment, rematching or not, its stations capped or not (robots left waiting for a
+    task): traffic refuses no planned move, and the same seed plays the same run."""
     try:
         grid = WarehouseGrid.from_layout(shelf_layout(rows, cols, shelf_bits))
     except ValueError:  # a floor the grid refuses (no cell but the start reached)
@@ -170,11 +171,15 @@ def test_a_turning_fleet_scheduled_by_it_is_granted_every_move_and_replays(
     if len(free) < robots + 1:
         return
     rng = np.random.default_rng(seed)
-    problem = LorrInstance(name="r", grid=grid, starts=rng.choice(free, robots, replace=False),
-                           task_offsets=np.arange(31) * 2, task_stops=rng.choice(free, 60),
+    starts = rng.choice(free, robots, replace=False)
+    firsts = rng.choice(free[:3] if cap else free, 30)  # capped: three stations, queues
+    stops = np.column_stack([firsts, rng.choice(free, 30)]).ravel()
+    problem = LorrInstance(name="r", grid=grid, starts=starts,
+                           task_offsets=np.arange(31) * 2, task_stops=stops,
                            num_tasks_reveal=1.5, assignment="scheduler",
                            version="2024 LoRR")  # fmt: skip
-    env = lorr.fleet(problem, max_cycles=30, scheduler=AssignmentScheduler(grid, rematch=rematch))
+    scheduler = AssignmentScheduler(grid, rematch=rematch, station_cap=cap)
+    env = lorr.fleet(problem, max_cycles=30, scheduler=scheduler)
     refused, digest = play(env, planner_policy(name, seed), seed, 30)
     assert refused == 0
     assert play(env, planner_policy(name, seed), seed, 30) == (0, digest)

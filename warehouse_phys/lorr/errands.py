@@ -39,6 +39,7 @@ from warehouse_phys.lorr.instances import SCHEDULED, LorrInstance
 from warehouse_phys.lorr.rematching import rematch_candidates
 from warehouse_phys.lorr.scheduling import Scheduler, schedule_checked, takes_task_lengths
 from warehouse_phys.lorr.scheduling_assignment import default_scheduler
+from warehouse_phys.lorr.station_cap import offered_within_cap
 
 #: The goal of a robot without an errand.
 NO_ERRAND = -1
@@ -224,6 +225,12 @@ class ScheduledTasks(ErrandList):
     guided PIBT, seed 0) it finished 21.33 tasks a step against the assignment's 20.45,
     and on the 2024 main round's random floors 5-26 % more than the nearest pairing
     (``docs/lorr.md``), so it is the default.
+
+    A scheduler with a ``station_cap`` (``"rematch-capped"``) is offered only the open
+    tasks that :func:`~warehouse_phys.lorr.station_cap.offered_within_cap` lets through:
+    no first stop ever has more than the cap of robots on their way to it (robots paired
+    again count as on their way, and their own tasks stay offered), and a free robot for
+    which no task is offered waits, without a task, for room.
     """
 
     def __init__(
@@ -262,10 +269,20 @@ class ScheduledTasks(ErrandList):
         again, their_slots = self._rematched(here)
         free = np.flatnonzero(self._slot < 0)
         slots = np.flatnonzero(self.open_robots < 0)
-        if not free.size or not slots.size:
-            return
         lines = self.open_ids[slots] % self.instance.num_tasks
         firsts = self.instance.task_stops[self.instance.task_offsets[lines]]
+        cap = getattr(self.scheduler, "station_cap", None)
+        if cap is not None and slots.size:
+            # Robots paired again count as on their way, and their own tasks stay offered:
+            # each may keep its task without taking another robot's room.
+            going = np.flatnonzero((self._slot >= 0) & (self.progress == 0))
+            offered = offered_within_cap(firsts, self.goals[np.concatenate([going, again])],
+                                         cap, held=np.isin(slots, their_slots))  # fmt: skip
+            slots, lines, firsts = slots[offered], lines[offered], firsts[offered]
+        if not free.size or not slots.size:
+            if again.size:
+                self._keep_or_free(again, their_slots)
+            return
         lengths = None if self._lengths is None else self._lengths[lines]
         chosen = schedule_checked(self.scheduler, here[free], firsts, self.instance.grid.cols,
                                   lengths)  # fmt: skip

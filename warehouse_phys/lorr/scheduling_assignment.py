@@ -41,6 +41,7 @@ from warehouse_phys.lorr.scheduling import (
     _points,
     scheduler_named,
 )
+from warehouse_phys.lorr.station_cap import STATION_CAP, check_cap
 from warehouse_phys.planners.distances import UNREACHABLE, DistanceMaps
 from warehouse_phys.world.grid import WarehouseGrid
 
@@ -76,9 +77,15 @@ class AssignmentScheduler:
         rematch: Ask the errand list to pair again, with the free robots, the robots on
             their way to a task not opened yet (:attr:`rematch`,
             :mod:`warehouse_phys.lorr.rematching`): ``"rematch"`` by name.
+        station_cap: Ask the errand list to offer the pairing no task whose first stop
+            already has this many robots on their way (:attr:`station_cap`,
+            :mod:`warehouse_phys.lorr.station_cap`); None (default): no cap.
+            ``"rematch-capped"`` by name rematches with a cap of
+            :data:`~warehouse_phys.lorr.station_cap.STATION_CAP`.
 
     Raises:
-        ValueError: for a weight below 0 or not finite, or no candidates.
+        ValueError: for a weight below 0 or not finite, no candidates, or a
+            ``station_cap`` below 1.
     """
 
     def __init__(
@@ -89,6 +96,7 @@ class AssignmentScheduler:
         candidates: int = CANDIDATES,
         distances: DistanceMaps | None = None,
         rematch: bool = False,
+        station_cap: int | None = None,
     ) -> None:
         if not 0 <= length_weight <= MAX_LENGTH_WEIGHT or candidates < 1:
             raise ValueError(f"length_weight must be 0 to {MAX_LENGTH_WEIGHT:g} and candidates "
@@ -101,7 +109,12 @@ class AssignmentScheduler:
         #: hands it, each step, the robots on their way to a task not opened yet with the
         #: free ones (their tasks back among the open ones).
         self.rematch = bool(rematch)
+        #: The most robots on their way to one first stop that the errand list lets the
+        #: pairing make (None: no cap).
+        self.station_cap = None if station_cap is None else check_cap(station_cap)
         self.__name__ = "rematch" if self.rematch else "assignment"
+        if self.station_cap is not None:
+            self.__name__ += "-capped"
 
     def __call__(
         self,
@@ -174,23 +187,29 @@ def default_scheduler(grid: WarehouseGrid) -> AssignmentScheduler:
     return AssignmentScheduler(grid, rematch=True)
 
 
-#: Every scheduler's name: the built-in ones, ``"assignment"`` (:class:`AssignmentScheduler`)
-#: and ``"rematch"`` (the same, rematching: :attr:`AssignmentScheduler.rematch`).
-SCHEDULER_NAMES = (*SCHEDULERS, "assignment", "rematch")
+#: Every scheduler's name: the built-in ones, ``"assignment"`` (:class:`AssignmentScheduler`),
+#: ``"rematch"`` (the same, rematching: :attr:`AssignmentScheduler.rematch`) and
+#: ``"rematch-capped"`` (rematching, at most
+#: :data:`~warehouse_phys.lorr.station_cap.STATION_CAP` robots on their way to one first
+#: stop: :attr:`AssignmentScheduler.station_cap`).
+SCHEDULER_NAMES = (*SCHEDULERS, "assignment", "rematch", "rematch-capped")
 
 
 def scheduler_for(name: str, grid: WarehouseGrid) -> Scheduler:
-    """The scheduler called ``name`` (of :data:`SCHEDULER_NAMES`; ``assignment=W`` and
-    ``rematch=W`` take ``length_weight`` W) for a fleet on ``grid``.
+    """The scheduler called ``name`` (of :data:`SCHEDULER_NAMES`; ``assignment=W``,
+    ``rematch=W`` and ``rematch-capped=W`` take ``length_weight`` W) for a fleet on
+    ``grid``.
 
     Raises:
         ValueError: naming the known schedulers, for another name.
     """
     kind, equals, weight = name.partition("=")
-    if kind in ("assignment", "rematch"):
+    if kind in ("assignment", "rematch", "rematch-capped"):
         try:
             weighed = {"length_weight": float(weight)} if equals else {}
-            return AssignmentScheduler(grid, rematch=kind == "rematch", **weighed)
+            cap = STATION_CAP if kind == "rematch-capped" else None
+            return AssignmentScheduler(grid, rematch=kind != "assignment", station_cap=cap,
+                                       **weighed)  # fmt: skip
         except ValueError:
             raise ValueError(
                 f"{kind}=W needs a weight W from 0 to {MAX_LENGTH_WEIGHT:g}, got {name!r}"

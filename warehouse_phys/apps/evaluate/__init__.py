@@ -49,6 +49,7 @@ from warehouse_phys.apps.evaluate.report import RESULTS_CSV, write_results
 from warehouse_phys.apps.evaluate.suite import Job, finished_rows, run_job, write_row
 from warehouse_phys.apps.interrupts import Terminated, stops_on_sigterm
 from warehouse_phys.apps.sweep.on_ray import RayUnavailableError, check_address, ray_session
+from warehouse_phys.lorr.station_cap import STATION_CAP
 
 PROG = "python -m warehouse_phys.evaluate"
 #: Where suites go without ``--out``.
@@ -73,8 +74,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--moves", choices=("rotate", "grid"), default="rotate",
                         help="robot model (default rotate, LoRR's turning robots)")  # fmt: skip
     parser.add_argument("--scheduler", help="a 2024 instance's scheduler: nearest, makespan, "
-                        "assignment[=W] or rematch[=W] (the assignment, robots on their way "
-                        "to a task not opened paired again)")  # fmt: skip
+                        "assignment[=W], rematch[=W] (the assignment, robots on their way "
+                        "to a task not opened paired again) or rematch-capped[=W] (the same, "
+                        f"at most {STATION_CAP} robots on their way to one station)")  # fmt: skip
     parser.add_argument("--guidance", type=json.loads, default={}, metavar="JSON",
                         help="the guided planners' GuidanceConfig fields")  # fmt: skip
     parser.add_argument("--out", type=Path, help="the suite's folder (evaluations/<time>)")

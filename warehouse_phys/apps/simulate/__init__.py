@@ -126,6 +126,7 @@ from warehouse_phys.lorr.instances import SCHEDULED, read_instance
 from warehouse_phys.lorr.output import RunRecord
 from warehouse_phys.lorr.scheduling_assignment import SCHEDULER_NAMES, scheduler_for
 from warehouse_phys.lorr.startkit.system import KitSystem
+from warehouse_phys.lorr.station_cap import STATION_CAP
 from warehouse_phys.rl.fleet_evaluation import FleetPolicy
 from warehouse_phys.rl.fleet_planners import PLANNERS
 from warehouse_phys.world.headings import MOVE_MODELS
@@ -184,7 +185,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--scheduler", choices=SCHEDULER_NAMES,
         help="which free robot takes which task, on a 2024 or later instance: rematch (a "
         "minimum-cost assignment on true distances, robots on their way to a task not "
-        "opened yet paired again, default), assignment (the same without pairing again), "
+        "opened yet paired again, default), rematch-capped (the same, at most "
+        f"{STATION_CAP} robots on their way to one station), assignment (the same without "
+        "pairing again), "
         "nearest (the first stop nearest the robot) or makespan (the least distance to the "
         "first stop plus the task's own length, as the competition's default entry)",
     )  # fmt: skip

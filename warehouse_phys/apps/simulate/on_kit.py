@@ -73,7 +73,8 @@ def kit_system(
 
     Raises:
         UsageError: one line, for a policy the entry has no planner of, a 2023 instance,
-            the scheduler ``assignment`` (the entry's pairs again: ``rematch``), or a
+            the scheduler ``assignment`` (the entry's pairs again: ``rematch``) or
+            ``rematch-capped`` (the entry's has no station cap), or a
             ``--delays-from`` file that is not a kit run's output for this instance and
             these ticks.
     """
@@ -86,6 +87,10 @@ def kit_system(
     if scheduler == "assignment":
         raise UsageError("--scheduler assignment: by the start kit's rules the entry's "
                          "assignment pairs again; use rematch (the default), nearest or "
+                         "makespan")  # fmt: skip
+    if scheduler == "rematch-capped":
+        raise UsageError("--scheduler rematch-capped: the start-kit entry's scheduler has "
+                         "no station cap; use rematch (the default), nearest or "
                          "makespan")  # fmt: skip
     delays: DelayConfig | DelayReplay | None = options.delays
     if delays_from is not None:
