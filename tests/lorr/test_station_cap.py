@@ -38,6 +38,8 @@ def test_a_cap_below_one_or_not_an_int_is_refused(cap):
     if cap is not None:
         with pytest.raises(ValueError, match="cap"):
             AssignmentScheduler(GRID, station_cap=cap)
+    with pytest.raises(ValueError, match="held must be one bool a task"):
+        offered_within_cap(np.array([1, 2]), np.array([1]), 2, held=np.array([True]))
 
 
 @settings(max_examples=200, deadline=None)

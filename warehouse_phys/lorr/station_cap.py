@@ -66,11 +66,14 @@ def offered_within_cap(
     robots on their way has at most ``cap`` after it.
 
     Raises:
-        ValueError: for a ``cap`` below 1.
+        ValueError: for a ``cap`` that is not an int of at least 1, or ``held`` of
+            another shape than ``stops``.
     """
     check_cap(cap)
     stops = np.asarray(stops, dtype=np.int64)
     held = np.zeros(len(stops), dtype=bool) if held is None else np.asarray(held, dtype=bool)
+    if held.shape != stops.shape:
+        raise ValueError(f"held must be one bool a task ({stops.shape}), got {held.shape}")
     others = np.flatnonzero(~held)
     order = others[np.argsort(stops[others], kind="stable")]
     sorted_stops = stops[order]
