@@ -39,6 +39,11 @@ def test_sprites_and_maps_load_from_an_installed_wheel(tmp_path, run_python):
     for name in MAPS:  # the benchmark maps the package ships
         assert f"warehouse_phys/world/map_files/{name}.map" in names
     assert any(name.endswith(".dist-info/licenses/LICENSE") for name in names)
+    # every module of the checkout ships (a subpackage left out of pyproject's list
+    # installs, and fails only when a command imports it)
+    package = ROOT / "warehouse_phys"
+    modules = {path.relative_to(ROOT).as_posix() for path in package.rglob("*.py")}
+    assert modules <= names, sorted(modules - names)
 
     site = tmp_path / "site"
     subprocess.run(
@@ -56,6 +61,8 @@ def test_sprites_and_maps_load_from_an_installed_wheel(tmp_path, run_python):
         "from warehouse_phys.world.layouts import resolve_layout\n"
         "print(map_path('kiva-33-46'))\n"
         "print(resolve_layout('kiva-33-46').shelf_mask.shape)\n"
+        "import warehouse_phys.simulate, warehouse_phys.evaluate\n"
+        "import warehouse_phys.planners.guidance\n"
     )
     outside = tmp_path / "elsewhere"
     outside.mkdir()
