@@ -11,8 +11,8 @@ way is not offered (a robot then takes a task at another station, or waits for r
 save to a robot paired again (:mod:`~warehouse_phys.lorr.rematching`), whose own task
 stays offered to the pairing. On WAREHOUSE a cap of 8 made 23.98 tasks a step over 5,000
 steps against 21.90 without (``docs/lorr.md``). On a floor whose tasks begin anywhere
-(the 2024 random and city floors) no stop has that many robots on their way, and the cap
-changes nothing.
+(the 2024 random and city floors) a stop rarely has that many robots on their way: on
+RANDOM-05 and CITY-02 the cap changed nothing in the steps measured.
 
 :class:`~warehouse_phys.lorr.scheduling_assignment.AssignmentScheduler`'s
 ``station_cap`` (``"rematch-capped"`` by name) asks the fleet's errand list
