@@ -103,6 +103,24 @@ def test_p_delay_and_delay_seed_replace_the_instances_pdelay_and_seed_alone(tmp_
     assert faster["agentMaxCounter"] == 2
 
 
+def test_the_station_cap_runs_by_the_start_kits_rules(tmp_path, capsys):
+    """--scheduler rematch-capped by the kit's rules: the entry's assignment-capped, whose
+    robots go otherwise than rematching's where more robots than the cap head for a
+    station."""
+    from tests.lorr.tiny_kit_instance import station_instance
+
+    path = write_instance(station_instance(), tmp_path / "stations.json")
+    runs = {}
+    for scheduler in ("rematch", "rematch-capped"):
+        summary, output = run(tmp_path, scheduler, "--instance", str(path), "--steps", "120",
+                              "--scheduler", scheduler)  # fmt: skip
+        assert "0 square collisions by the kit's rule, 0 schedule errors" in capsys.readouterr().out
+        assert summary["rules"] == "start kit"
+        assert output["numTaskFinished"] == summary["tasks"] > 0
+        runs[scheduler] = output["actualPaths"]
+    assert runs["rematch"] != runs["rematch-capped"]
+
+
 def test_ticks_on_an_earlier_instance_write_empty_delay_intervals_and_replay(tmp_path, capsys):
     """--ticks-per-move on a 2024 instance: the same output, plus agentMaxCounter and one
     empty list of delays a robot; the paths replay tick by tick without a conflict."""
@@ -179,7 +197,6 @@ def test_replayed_delays_must_come_from_an_output_file_of_the_instance(tmp_path,
     [
         ("instance", ["--policy", "shortest"], "--policy shortest: a run on ticks"),
         ("instance", ["--scheduler", "assignment"], "the entry's assignment pairs again"),
-        ("instance", ["--scheduler", "rematch-capped"], "entry's scheduler has no station cap"),
         ("floor", ["--on-delivery", "park", "--p-delay", "0.1"], "is lifelong (new_package)"),
         ("floor", ["--delay-seed", "3"], "--delay-seed needs delays: give --p-delay too"),
         ("floor", ["--p-delay", "nan"], "expected a chance from 0 to 1, got nan"),

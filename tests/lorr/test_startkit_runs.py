@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tests.lorr.kit import KIT, built_kit, corner, kit_step, mapf_module, scripted_run
-from tests.lorr.tiny_kit_instance import tiny_instance
+from tests.lorr.tiny_kit_instance import station_instance, tiny_instance
 from warehouse_phys.apps import startkit
 from warehouse_phys.execution.delay_replay import DelayReplay
 from warehouse_phys.execution.delays import DelayConfig
@@ -121,6 +121,34 @@ def test_a_kit_run_of_the_entry_is_the_packages_simulation_of_it(tmp_path):
     if not len(late) and recorded == 80:
         assert system.tasks.tasks_done == kit.data["numTaskFinished"]
         assert system.output().events == kit.data["events"]
+
+
+def test_the_kit_runs_the_entry_with_the_capped_scheduler_as_the_package_does(tmp_path):
+    build = built_kit()
+    instance = station_instance()
+    path = write_instance(instance, tmp_path / "stations.json")
+    settings = {"WAREHOUSE_PHYS_SCHEDULER": "assignment-capped"}
+    result = run_kit(build, path, tmp_path / "ours.json", 120, settings=settings)
+    assert result.returncode == 0, result.note
+    assert (result.refused_motions, result.planner_errors) == (0, 0)
+    assert result.schedule_errors == 0 or result.scheduler_late > 0
+    kit = read_output(tmp_path / "ours.json")
+    assert kit.data["numTaskFinished"] > 0
+    recorded = kit.actual.shape[1]
+    replay = DelayReplay(kit.data["delayIntervals"], recorded)
+    system = KitSystem(instance, scheduler="assignment-capped", delays=replay)
+    system.run(recorded)
+    ours = np.stack([decode_path(p, 100)[0] for p in system.output().actual_paths])
+    late = np.flatnonzero((kit.planned == TIMEOUT).all(axis=0))
+    same = recorded if not len(late) else int(late[0])
+    assert (ours[:, :same] == kit.actual[:, :same]).all()
+    if not len(late) and recorded == 120:
+        assert system.output().events == kit.data["events"]
+    # The setting reached the kit's entry: without the cap the robots go otherwise.
+    uncapped = KitSystem(instance, scheduler="assignment", delays=replay)
+    uncapped.run(recorded)
+    other = np.stack([decode_path(p, 100)[0] for p in uncapped.output().actual_paths])
+    assert (other[:, :same] != kit.actual[:, :same]).any()
 
 
 def test_the_adapters_speak_the_kits_own_types(tmp_path):

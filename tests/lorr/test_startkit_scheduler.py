@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from warehouse_phys.lorr.rematching import KEEP_WITHIN
 from warehouse_phys.lorr.startkit.scheduler import EntryScheduler, OpenTasks
+from warehouse_phys.lorr.station_cap import STATION_CAP
 
 COLS = 10
 
@@ -112,3 +113,98 @@ def test_pairing_again_on_the_floor_takes_the_way_round_the_shelves():
     proposal = scheduler.schedule(np.array([4, -1]), np.array([2 * cols, 3 * cols + 2]), pool,
                                   unopened=np.array([True, False]))  # fmt: skip
     assert proposal.tolist() == [5, 4]
+
+
+def _open_floor():
+    from warehouse_phys.world.grid import WarehouseGrid
+
+    return WarehouseGrid.from_layout(["." * COLS] * COLS)
+
+
+def test_the_capped_assignment_sends_no_more_than_the_cap_to_one_station():
+    grid, station = _open_floor(), 55
+    pool = tasks(list(range(12)), [station] * 12, [-1] * 12)
+    free = np.full(10, -1)
+    capped = EntryScheduler(COLS, "assignment-capped", grid)
+    assert capped.scheduler.station_cap == STATION_CAP
+    proposal = capped.schedule(free, np.arange(10), pool, unopened=np.zeros(10, bool))
+    assert (proposal >= 0).sum() == STATION_CAP
+    uncapped = EntryScheduler(COLS, "assignment", grid)
+    assert (uncapped.schedule(free, np.arange(10), pool) >= 0).sum() == 10
+    # Three robots already on their way there (tasks 0-2 not opened): room for five more.
+    current = np.array([0, 1, 2] + [-1] * 7)
+    pool = tasks(list(range(12)), [station] * 12, [0, 1, 2] + [-1] * 9)
+    unopened = current >= 0
+    proposal = capped.schedule(current, np.full(10, station), pool, unopened=unopened)
+    assert proposal[:3].tolist() == [0, 1, 2]
+    assert (proposal[3:] >= 0).sum() == STATION_CAP - 3
+    with pytest.raises(ValueError, match="give unopened"):
+        capped.schedule(current, np.full(10, station), pool)
+
+
+def test_a_robot_paired_again_at_a_full_station_keeps_its_task_on_offer():
+    grid, station = _open_floor(), 99
+    # Robot 0, far from station 99, is on its way to task 0 there with seven others (the
+    # cap), and is paired again; robot 8, free beside the station, and task 9 at cell 9
+    # beside robot 0. Task 0 stays on offer (robot 0 holds its place), so the pairing
+    # swaps them; no other task at the full station is offered.
+    ids = list(range(10))
+    current = np.array([0, 1, 2, 3, 4, 5, 6, 7, -1])
+    pool = tasks(ids, [station] * 9 + [9], [0, 1, 2, 3, 4, 5, 6, 7, -1, -1])
+    cells = np.array([0, 98, 98, 98, 98, 98, 98, 98, 89])
+    proposal = EntryScheduler(COLS, "assignment-capped", grid).schedule(
+        current, cells, pool, unopened=current >= 0
+    )
+    assert proposal.tolist() == [9, 1, 2, 3, 4, 5, 6, 7, 0]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_capped_assignment_never_fills_a_station_past_the_cap(seed):
+    # Few stations, many robots: the cap binds. Robots on their way to a first stop at
+    # each station (tasks not opened, tasks held for robots about to be free and proposed
+    # to them once free) after each of two rounds: never above the cap unless they were
+    # before.
+    rng = np.random.default_rng(seed)
+    grid = _open_floor()
+    n, k = int(rng.integers(1, 40)), int(rng.integers(1, 60))
+    stations = rng.choice(COLS * COLS, int(rng.integers(1, 4)), replace=False)
+    ids = np.sort(rng.choice(1000, k, replace=False))
+    holder, current = np.full(k, -1), np.full(n, -1)
+    for robot, slot in enumerate(rng.choice(k, min(n, k), replace=False)):
+        if rng.random() < 0.5:
+            current[robot], holder[slot] = ids[slot], robot
+    stops = rng.choice(stations, k)
+    pool = tasks(ids, stops, holder, rng.integers(0, 30, k))
+    scheduler = EntryScheduler(COLS, "assignment-capped", grid)
+    busy = current >= 0
+    opened = busy & (rng.random(n) < 0.3)
+    finishing = opened & (rng.random(n) < 0.5)
+    unopened = busy & ~opened
+    stop_of = dict(zip(ids.tolist(), stops.tolist(), strict=True))
+
+    def loads(going):
+        counted = [stop_of[t] for t in going.tolist()]
+        return {s: counted.count(s) for s in stations.tolist()}
+
+    before = loads(current[unopened])
+    for _ in range(2):  # the second round: the kit took the proposal, the holds stand
+        proposal = scheduler.schedule(current, rng.integers(0, COLS * COLS, n), pool,
+                                      finishing, unopened)  # fmt: skip
+        held = scheduler.held[scheduler.held >= 0]
+        after = loads(np.concatenate([proposal[(proposal >= 0) & ~opened], held]))
+        for station in stations.tolist():
+            assert after[station] <= max(STATION_CAP, before[station])
+        given_out = np.concatenate([proposal[proposal >= 0], held])
+        assert len(set(given_out.tolist())) == len(given_out)  # no task twice
+        assert (proposal[opened] == current[opened]).all()  # an opened task stays
+        # The kit took the proposal and freed some finishing robots, their tasks done.
+        freed = finishing & (rng.random(n) < 0.5)
+        done = np.isin(ids, current[freed])
+        ids, stops, lengths = ids[~done], stops[~done], pool.length[~done]
+        current = np.where(freed, -1, proposal)
+        opened &= ~freed
+        unopened, finishing, before = (current >= 0) & ~opened, finishing & ~freed, after
+        holder = np.full(len(ids), -1)
+        holder[np.searchsorted(ids, current[current >= 0])] = np.flatnonzero(current >= 0)
+        pool = tasks(ids, stops, holder, lengths)

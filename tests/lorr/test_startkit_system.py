@@ -11,10 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tests.lorr.tiny_kit_instance import tiny_instance
+from tests.lorr.tiny_kit_instance import STATIONS, station_instance, tiny_instance
 from warehouse_phys.execution.delay_replay import DelayReplay
 from warehouse_phys.lorr.output_2026 import read_output, walk, write_output
 from warehouse_phys.lorr.startkit.system import KitSystem
+from warehouse_phys.lorr.station_cap import STATION_CAP
 from warehouse_phys.planners.named import PLANNERS
 
 GOLDEN = Path(__file__).with_name("data") / "kit_tiny_output.json"
@@ -130,3 +131,39 @@ def test_the_entrys_runs_are_the_golden_ones(planner):
     output.pop("plannerTimes")
     digest = hashlib.sha256(json.dumps(output, sort_keys=True).encode()).hexdigest()
     assert digest == ENTRY_GOLDEN[planner]
+
+
+def test_the_capped_entry_never_sends_a_station_more_than_the_cap():
+    """Each round of the kit's loop with ``assignment-capped``: the robots on their way to
+    a station as the entry counts them (a task not opened by the end of their staged
+    actions, a task held for them) never exceed the cap where they did not before;
+    without the cap they do."""
+    instance = station_instance()
+    stop_of = instance.task_stops[instance.task_offsets[:-1]]
+
+    def loads(going):
+        firsts = stop_of[going % instance.num_tasks]
+        return np.array([(firsts == station).sum() for station in STATIONS])
+
+    most = {}
+    for scheduler in ("assignment", "assignment-capped"):
+        system = KitSystem(instance, scheduler=scheduler)
+        entry, rounds = system.scheduler, []
+
+        def counted(current, cells, tasks, finishing=None, unopened=None, entry=entry,
+                    rounds=rounds):  # fmt: skip
+            before = loads(np.concatenate([current[unopened], entry.held[entry.held >= 0]]))
+            proposal = type(entry).schedule(entry, current, cells, tasks, finishing, unopened)
+            kept_or_new = (proposal >= 0) & ((proposal != current) | unopened)
+            after = loads(np.concatenate([proposal[kept_or_new], entry.held[entry.held >= 0]]))
+            rounds.append((before, after))
+            return proposal
+
+        entry.schedule = counted
+        system.run(300)
+        assert system.tasks.tasks_done > 0
+        most[scheduler] = max(after.max() for _, after in rounds)
+        if scheduler == "assignment-capped":
+            for before, after in rounds:
+                assert (after <= np.maximum(before, STATION_CAP)).all(), (before, after)
+    assert most["assignment-capped"] == STATION_CAP < most["assignment"]

@@ -17,8 +17,10 @@ RANDOM-05 and CITY-02 the cap changed nothing in the steps measured.
 :class:`~warehouse_phys.lorr.scheduling_assignment.AssignmentScheduler`'s
 ``station_cap`` (``"rematch-capped"`` by name) asks the fleet's errand list
 (:class:`~warehouse_phys.lorr.errands.ScheduledTasks`) to offer its pairing only these
-tasks. Like :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium,
-pymunk nor pygame.
+tasks; the start-kit entry's ``"assignment-capped"``
+(:class:`~warehouse_phys.lorr.startkit.scheduler.EntryScheduler`) does the same. Like
+:mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
+pygame.
 """
 
 from __future__ import annotations

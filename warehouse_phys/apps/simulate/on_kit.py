@@ -10,7 +10,8 @@ executor's GO or STOP every tick before the tick's delays) with the entry's plan
 (``--policy``: the entry's ``guided-ops-repair``, ``guided`` or ``pibt``, set as in the
 entry, or any other planner by name), scheduler (``--scheduler``; by default, and as
 ``rematch``, the entry's: the minimum-cost assignment on true distances, pairing again
-the robots on their way to a task not opened yet) and executor, robots
+the robots on their way to a task not opened yet; ``rematch-capped``: the same with a cap
+on each station's queue, the entry's ``assignment-capped``) and executor, robots
 as squares of side ``agentSize`` (the kit's swept-square rule, checked every tick). It
 writes the kit's 2026 output file (:mod:`warehouse_phys.lorr.output_2026`) as
 ``lorr-output.json``.
@@ -47,6 +48,11 @@ from warehouse_phys.planners.named import PLANNERS
 if TYPE_CHECKING:
     from warehouse_phys.lorr.output import RunRecord
 
+#: The entry's scheduler for each fleet scheduler that pairs again (the entry's always
+#: does); ``nearest`` and ``makespan`` are the entry's by the same names.
+_ENTRY_SCHEDULER = {None: "assignment", "rematch": "assignment",
+                    "rematch-capped": "assignment-capped"}  # fmt: skip
+
 
 def add_kit_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``--delays-from`` (see the module)."""
@@ -73,8 +79,7 @@ def kit_system(
 
     Raises:
         UsageError: one line, for a policy the entry has no planner of, a 2023 instance,
-            the scheduler ``assignment`` (the entry's pairs again: ``rematch``) or
-            ``rematch-capped`` (the entry's has no station cap), or a
+            the scheduler ``assignment`` (the entry's pairs again: ``rematch``), or a
             ``--delays-from`` file that is not a kit run's output for this instance and
             these ticks.
     """
@@ -88,10 +93,6 @@ def kit_system(
         raise UsageError("--scheduler assignment: by the start kit's rules the entry's "
                          "assignment pairs again; use rematch (the default), nearest or "
                          "makespan")  # fmt: skip
-    if scheduler == "rematch-capped":
-        raise UsageError("--scheduler rematch-capped: the start-kit entry's scheduler has "
-                         "no station cap; use rematch (the default), nearest or "
-                         "makespan")  # fmt: skip
     delays: DelayConfig | DelayReplay | None = options.delays
     if delays_from is not None:
         delays = replayed_delays(delays_from, instance, ticks)
@@ -99,7 +100,7 @@ def kit_system(
         return KitSystem(
             instance,
             planner=policy,
-            scheduler="assignment" if scheduler in (None, "rematch") else scheduler,
+            scheduler=_ENTRY_SCHEDULER.get(scheduler, scheduler),
             ticks_per_move=options.ticks_per_move,
             delays=delays,
             seed=seed,

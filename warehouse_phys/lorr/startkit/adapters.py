@@ -15,7 +15,8 @@ What the kit does not tell its components, they take from the environment: the r
 side, ``agentSize`` (``WAREHOUSE_PHYS_AGENT_SIZE``, default 1, the kit's default and
 every 2026 example's; a larger value than the instance's is safe, only slower), the
 planner (``WAREHOUSE_PHYS_PLANNER``, ``guided-ops-repair``) and the scheduler
-(``WAREHOUSE_PHYS_SCHEDULER``, ``assignment``). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
+(``WAREHOUSE_PHYS_SCHEDULER``, ``assignment``; ``assignment-capped``, ``makespan``,
+``nearest``). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
 file, each call appends a line ``<call> <wall seconds> <CPU seconds of its thread>`` to
 it (the kit ends its process without Python's exit handlers, so nothing waits for the
 end).

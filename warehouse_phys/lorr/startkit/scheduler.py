@@ -7,7 +7,10 @@ a task not opened yet may go to another robot, so each round the robots on their
 one go back into the pairing with the free robots, and the tasks nobody has or is on
 the way to are paired with them by one of :data:`ENTRY_SCHEDULERS`: ``"assignment"``
 (the entry's: a minimum-cost matching on distances round the shelves,
-:class:`~warehouse_phys.lorr.scheduling_assignment.AssignmentScheduler`), ``"makespan"``
+:class:`~warehouse_phys.lorr.scheduling_assignment.AssignmentScheduler`),
+``"assignment-capped"`` (the same, offered no task whose first stop already has
+:data:`~warehouse_phys.lorr.station_cap.STATION_CAP` robots on their way: the fleet's
+``"rematch-capped"``, :mod:`warehouse_phys.lorr.station_cap`), ``"makespan"``
 (the least Manhattan distance to the first errand plus the task's own length, as the
 kit's default entry weighs them) or ``"nearest"``. Like :mod:`warehouse_phys.world.grid`, this
 module imports neither gymnasium, pymunk nor pygame.
@@ -27,11 +30,13 @@ import numpy as np
 from warehouse_phys.lorr.rematching import rematch_candidates
 from warehouse_phys.lorr.scheduling import SCHEDULERS, schedule_checked, scheduler_named
 from warehouse_phys.lorr.scheduling_assignment import AssignmentScheduler
+from warehouse_phys.lorr.station_cap import STATION_CAP, offered_within_cap
 from warehouse_phys.world.grid import WarehouseGrid
 
 #: The schedulers an entry may use, by name: the built-in greedy pairings, and the
-#: minimum-cost assignment on true distances (which needs the floor).
-ENTRY_SCHEDULERS = (*SCHEDULERS, "assignment")
+#: minimum-cost assignment on true distances (which needs the floor), without and with
+#: a cap on each station's queue.
+ENTRY_SCHEDULERS = (*SCHEDULERS, "assignment", "assignment-capped")
 
 
 class OpenTasks(NamedTuple):
@@ -58,15 +63,23 @@ class EntryScheduler:
     given it, and the robot is proposed for it at the next round, when the kit has freed
     it (if the task is still open then).
 
+    With ``"assignment-capped"`` the pairing is offered only the tasks that
+    :func:`~warehouse_phys.lorr.station_cap.offered_within_cap` lets through, counting as
+    on their way to a first stop the robots ``unopened`` (those paired again too, whose
+    own tasks stay offered), the free robots proposed for their held tasks and the tasks
+    still held: no first stop then has more than the cap of robots on their way to it
+    (the fleet's ``"rematch-capped"``).
+
     Args:
         cols: The floor's width (cells are ``row * cols + col``).
         scheduler: A name of :data:`ENTRY_SCHEDULERS`.
-        grid: The floor, which ``"assignment"`` measures its distances on.
+        grid: The floor, which ``"assignment"`` and ``"assignment-capped"`` measure
+            their distances on.
         pair_again: Pair the robots on their way to a task not opened again each round
             (the module), when :meth:`schedule` is told which they are.
 
     Raises:
-        ValueError: for an unknown scheduler, or ``"assignment"`` without the floor.
+        ValueError: for an unknown scheduler, or an assignment without the floor.
     """
 
     def __init__(
@@ -80,12 +93,15 @@ class EntryScheduler:
         self.cols = int(cols)
         self.name = scheduler
         self.pair_again = bool(pair_again)
-        if scheduler == "assignment":
+        if scheduler in ("assignment", "assignment-capped"):
             if grid is None:
-                raise ValueError("the assignment scheduler measures on the floor: give grid")
-            self.scheduler = AssignmentScheduler(grid)
+                raise ValueError(f"the {scheduler} scheduler measures on the floor: give grid")
+            cap = STATION_CAP if scheduler == "assignment-capped" else None
+            self.scheduler = AssignmentScheduler(grid, station_cap=cap)
         else:
             self.scheduler = scheduler_named(scheduler)
+        #: The most robots on their way to one first stop (None: no cap).
+        self.station_cap: int | None = getattr(self.scheduler, "station_cap", None)
         #: The task held for each robot (-1: none).
         self.held = np.zeros(0, dtype=np.int64)
 
@@ -105,7 +121,15 @@ class EntryScheduler:
         theirs. Robots ``unopened`` (``(N,)`` bool: a task of which no errand is done, nor
         will be by the end of their staged actions) are paired again with their tasks, as
         :func:`~warehouse_phys.lorr.rematching.rematch_candidates` picks them
-        (:attr:`pair_again`); one the pairing leaves without a task keeps its own."""
+        (:attr:`pair_again`); one the pairing leaves without a task keeps its own.
+
+        Raises:
+            ValueError: for ``"assignment-capped"`` without ``unopened`` (the cap counts
+                the robots on their way to a first stop).
+        """
+        if self.station_cap is not None and unopened is None:
+            raise ValueError(f"{self.name} counts the robots on their way to a first stop: "
+                             "give unopened")  # fmt: skip
         proposal = np.asarray(current, dtype=np.int64).copy()
         n = len(proposal)
         cells = np.asarray(cells, np.int64)
@@ -128,6 +152,18 @@ class EntryScheduler:
         self.held[claim] = -1
         seekers = np.flatnonzero((proposal < 0) | (finishing & (self.held < 0) & ~free))
         untaken = np.flatnonzero((robot < 0) & ~np.isin(ids, proposal) & ~np.isin(ids, self.held))
+        if self.station_cap is not None and untaken.size:
+            current = np.asarray(current, np.int64)
+            going = np.concatenate([current[np.asarray(unopened, bool) & (current >= 0)],
+                                    proposal[claim], self.held[self.held >= 0]])  # fmt: skip
+            order = np.argsort(ids, kind="stable")
+            slot = np.minimum(np.searchsorted(ids[order], going), len(ids) - 1)
+            listed = ids[order][slot] == going
+            goals = next_stop[order][slot[listed]]
+            # A robot paired again counts as on its way, and its own task stays offered.
+            offered = offered_within_cap(next_stop[untaken], goals, self.station_cap,
+                                         held=np.isin(ids[untaken], current[again]))  # fmt: skip
+            untaken = untaken[offered]
         if seekers.size and untaken.size:
             lengths = np.asarray(tasks.length, np.int64)[untaken]
             chosen = schedule_checked(self.scheduler, cells[seekers], next_stop[untaken],
