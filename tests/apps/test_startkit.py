@@ -34,6 +34,29 @@ def test_bad_command_lines_and_inputs_are_one_line_with_status_2(tmp_path, capsy
         assert error.count("\n") == 1, error
 
 
+def test_an_entry_the_environment_names_wrongly_is_one_line_with_status_2(
+    tmp_path, capsys, monkeypatch
+):
+    from tests.lorr.tiny_kit_instance import tiny_instance
+    from warehouse_phys.lorr.instances import write_instance
+
+    path = write_instance(tiny_instance(), tmp_path / "tiny.json")
+    argv = ["run", str(path), "--kit", str(tmp_path), "--ticks", "5", "--out", str(tmp_path / "o")]
+    for name, value, message in (
+        ("WAREHOUSE_PHYS_SCHEDULER", "hungarian", "WAREHOUSE_PHYS_SCHEDULER=hungarian: not an "),
+        ("WAREHOUSE_PHYS_PLANNER", "astar", "WAREHOUSE_PHYS_PLANNER=astar: not a planner"),
+    ):
+        monkeypatch.setenv(name, value)
+        assert startkit.main(argv) == 2
+        error = capsys.readouterr().err
+        assert message in error, error
+        assert error.count("\n") == 1
+        monkeypatch.delenv(name)
+    assert startkit.main([*argv, "--scheduler", "hungarian"]) == 2
+    assert "invalid choice: 'hungarian'" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
 def test_python_dash_m_runs_the_command():
     done = subprocess.run([sys.executable, "-m", "warehouse_phys.startkit", "--help"], cwd=ROOT,
                           capture_output=True, text=True)  # fmt: skip

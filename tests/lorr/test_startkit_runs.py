@@ -216,3 +216,21 @@ def test_the_command_runs_the_three_and_writes_their_summary(tmp_path, capsys):
     assert "simulate" in printed
     for name in ("ours.json", "default.json", "simulate", "summary.json"):
         assert (tmp_path / "out" / name).exists()
+    assert (summary["planner"], summary["scheduler"]) == ("guided-ops-repair", "assignment")
+
+
+def test_the_command_runs_the_entry_and_simulate_with_the_same_scheduler(tmp_path, capsys):
+    built_kit()
+    path = write_instance(station_instance(), tmp_path / "instance" / "stations.json")
+    out = tmp_path / "out"
+    argv = ["run", str(path), "--kit", str(KIT), "--ticks", "120", "--out", str(out),
+            "--scheduler", "assignment-capped"]  # fmt: skip
+    for only in ("ours", "simulate"):  # simulate replays the delays of ours
+        assert startkit.main([*argv, "--only", only]) == 0, capsys.readouterr().out
+    assert "the entry's guided-ops-repair and assignment-capped" in capsys.readouterr().out
+    kit = read_output(out / "ours.json")
+    ours = read_output(out / "simulate" / "lorr-output.json")
+    assert kit.data["numTaskFinished"] > 0
+    late = np.flatnonzero((kit.planned == TIMEOUT).all(axis=0))
+    same = kit.actual.shape[1] if not len(late) else int(late[0])
+    assert (ours.actual[:, :same] == kit.actual[:, :same]).all()

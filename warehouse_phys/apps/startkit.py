@@ -26,8 +26,12 @@ with the delays of the first (``DIR/simulate/``), and writes ``DIR/summary.json`
 prints one table: tasks finished, the motions the kit's action model refused, planner and
 schedule errors, the checks that found the planner late and the ticks every robot waited
 for a late executor, wall and CPU time (each run's own process). ``--only`` runs one of
-the three. Exit status: 0; 2 for a bad command line or instance; 1 when the kit cannot
-be built or run (one line saying what is missing, or where its log is).
+the three. ``--planner`` and ``--scheduler`` set the entry's (by default what
+``WAREHOUSE_PHYS_PLANNER`` and ``WAREHOUSE_PHYS_SCHEDULER`` say, else ``guided-ops-repair``
+and ``assignment``), and ``simulate`` runs the same ones (``assignment`` is its
+``rematch``, ``assignment-capped`` its ``rematch-capped``). Exit status: 0; 2 for a bad
+command line or instance; 1 when the kit cannot be built or run (one line saying what is
+missing, or where its log is).
 """
 
 from __future__ import annotations
@@ -41,9 +45,12 @@ from pathlib import Path
 from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.lorr.instances import read_instance
+from warehouse_phys.lorr.startkit.adapters import setting
 from warehouse_phys.lorr.startkit.build import KitBuildError, NotAKitError, build_kit
 from warehouse_phys.lorr.startkit.install import InstallError, install
 from warehouse_phys.lorr.startkit.runs import RUNS, comparison_table, run_kit, run_simulate
+from warehouse_phys.lorr.startkit.scheduler import ENTRY_SCHEDULERS, FLEET_SCHEDULERS
+from warehouse_phys.planners.named import PLANNERS
 
 PROG = "python -m warehouse_phys.startkit"
 
@@ -76,7 +83,32 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--only", choices=RUNS, help="run only this one")
     run.add_argument("--jobs", type=bounded_int(1, "a positive number of jobs"), default=2,
                      help="make's jobs when the kit is built (default 2)")  # fmt: skip
+    run.add_argument("--planner", choices=PLANNERS,
+                     help="the entry's planner, and simulate's (default: WAREHOUSE_PHYS_PLANNER, "
+                     "else guided-ops-repair)")  # fmt: skip
+    run.add_argument("--scheduler", choices=ENTRY_SCHEDULERS,
+                     help="the entry's scheduler, and simulate's (default: "
+                     "WAREHOUSE_PHYS_SCHEDULER, else assignment; assignment-capped sends at "
+                     "most 8 robots to one station)")  # fmt: skip
     return parser
+
+
+def _entry(args: argparse.Namespace) -> tuple[str, str]:
+    """The entry's planner and scheduler: the command line's, else the environment's.
+
+    Raises:
+        UsageError: for a planner or scheduler the environment names that the entry has
+            not.
+    """
+    planner = args.planner or setting("WAREHOUSE_PHYS_PLANNER")
+    scheduler = args.scheduler or setting("WAREHOUSE_PHYS_SCHEDULER")
+    if planner not in PLANNERS:
+        raise UsageError(f"WAREHOUSE_PHYS_PLANNER={planner}: not a planner; known: "
+                         f"{', '.join(PLANNERS)}")  # fmt: skip
+    if scheduler not in ENTRY_SCHEDULERS:
+        raise UsageError(f"WAREHOUSE_PHYS_SCHEDULER={scheduler}: not an entry's scheduler; "
+                         f"known: {', '.join(ENTRY_SCHEDULERS)}")  # fmt: skip
+    return planner, scheduler
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -120,6 +152,7 @@ def _run(args: argparse.Namespace) -> int:
         raise UsageError(str(error).splitlines()[0]) from None
     if not args.kit.is_dir() and args.only != "simulate":
         raise UsageError(f"--kit {args.kit}: not a folder (give the start kit's source)")
+    planner, scheduler = _entry(args)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     wanted = [args.only] if args.only else list(RUNS)
@@ -128,28 +161,32 @@ def _run(args: argparse.Namespace) -> int:
     if {"ours", "default"} & set(wanted):
         build = build_kit(args.kit, jobs=args.jobs, quiet=False)
     size = 1.0 if instance.agent_size is None else instance.agent_size
+    entry = {"WAREHOUSE_PHYS_PLANNER": planner, "WAREHOUSE_PHYS_SCHEDULER": scheduler}
     for name in ("ours", "default"):
         if name in wanted:
             print(f"running the kit with {'the entry' if name == 'ours' else 'its default entry'}"
                   f" ({args.ticks:,} ticks)...", file=sys.stderr, flush=True)  # fmt: skip
             results.append(run_kit(build, args.instance, out / f"{name}.json", args.ticks,
-                                   entry=name, agent_size=size))  # fmt: skip
+                                   entry=name, agent_size=size, settings=entry))  # fmt: skip
     if "simulate" in wanted:
         source = next((out / f"{n}.json" for n in ("ours", "default")
                        if (out / f"{n}.json").is_file()), None)  # fmt: skip
         print("running simulate by the kit's rules...", file=sys.stderr, flush=True)
         results.append(run_simulate(args.instance, out / "simulate", args.ticks,
-                                    delays_from=source))  # fmt: skip
+                                    delays_from=source, planner=planner,
+                                    scheduler=FLEET_SCHEDULERS[scheduler]))  # fmt: skip
     summary = {
         "instance": str(args.instance), "robots": instance.team_size, "ticks": args.ticks,
         "kit": str(args.kit), "build": None if build is None else str(build.folder),
+        "planner": planner, "scheduler": scheduler,
         "load_average": {"before": list(load_before), "after": list(os.getloadavg())},
         "cpus": os.cpu_count(), "runs": [result.to_json() for result in results],
     }  # fmt: skip
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     print(
-        f"{instance.name}, {instance.team_size:,} robots, {args.ticks:,} ticks "
-        f"(load average {load_before[0]:.1f} before, {os.getloadavg()[0]:.1f} after):"
+        f"{instance.name}, {instance.team_size:,} robots, {args.ticks:,} ticks, the entry's "
+        f"{planner} and {scheduler} (load average {load_before[0]:.1f} before, "
+        f"{os.getloadavg()[0]:.1f} after):"
     )
     print(comparison_table(results))
     for result in results:

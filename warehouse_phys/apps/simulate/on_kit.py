@@ -42,16 +42,16 @@ from warehouse_phys.execution.delay_replay import DelayReplay
 from warehouse_phys.execution.delays import DelayConfig
 from warehouse_phys.lorr.instances import LorrInstance
 from warehouse_phys.lorr.output_2026 import delay_intervals, write_output
+from warehouse_phys.lorr.startkit.scheduler import FLEET_SCHEDULERS
 from warehouse_phys.lorr.startkit.system import KitSystem
 from warehouse_phys.planners.named import PLANNERS
 
 if TYPE_CHECKING:
     from warehouse_phys.lorr.output import RunRecord
 
-#: The entry's scheduler for each fleet scheduler that pairs again (the entry's always
-#: does); ``nearest`` and ``makespan`` are the entry's by the same names.
-_ENTRY_SCHEDULER = {None: "assignment", "rematch": "assignment",
-                    "rematch-capped": "assignment-capped"}  # fmt: skip
+#: The entry's scheduler of each fleet scheduler it plays (the entry's default for none).
+_ENTRY_SCHEDULER = {fleet: entry for entry, fleet in FLEET_SCHEDULERS.items()}
+_ENTRY_SCHEDULER[None] = "assignment"
 
 
 def add_kit_arguments(parser: argparse.ArgumentParser) -> None:
@@ -100,7 +100,7 @@ def kit_system(
         return KitSystem(
             instance,
             planner=policy,
-            scheduler=_ENTRY_SCHEDULER.get(scheduler, scheduler),
+            scheduler=_ENTRY_SCHEDULER[scheduler],
             ticks_per_move=options.ticks_per_move,
             delays=delays,
             seed=seed,

@@ -37,6 +37,10 @@ from warehouse_phys.world.grid import WarehouseGrid
 #: minimum-cost assignment on true distances (which needs the floor), without and with
 #: a cap on each station's queue.
 ENTRY_SCHEDULERS = (*SCHEDULERS, "assignment", "assignment-capped")
+#: The fleet's name (``simulate --scheduler``) of each entry scheduler, which ``simulate``
+#: plays by the kit's rules: the entry's assignments always pair again.
+FLEET_SCHEDULERS = {**{name: name for name in SCHEDULERS}, "assignment": "rematch",
+                    "assignment-capped": "rematch-capped"}  # fmt: skip
 
 
 class OpenTasks(NamedTuple):
