@@ -159,7 +159,8 @@ def follow_paths(
     (with ``rejoin``, also one beside that cell: pushed aside or back): its path becomes its own
     cell, then the path from the farthest of those cells beside it, written in place over
     the cell before that one (``pool[path_start[i] - 1]`` is kept free for a robot beside
-    the start of a new path, and taken then)."""
+    the start of a new path, and taken then; a path that starts the pool has no cell
+    before it: ``pool[-1]`` is the pool's last cell, never written)."""
     for i in range(here.shape[0]):
         moves = path_moves[i]
         status[i] = 1
@@ -173,7 +174,7 @@ def follow_paths(
             if cell == here[i]:
                 found = k
             elif _move_of(neighbours, here[i], cell) >= 0 and (
-                k > at or (rejoin and (k > 0 or pool[start - 1] < 0))
+                k > at or (rejoin and (k > 0 or (start > 0 and pool[start - 1] < 0)))
             ):
                 beside = k
         if found < 0 and beside < 0:
