@@ -1,7 +1,8 @@
 """A tiny 2026 instance of our own (no shared data), the one the golden start-kit output
 file ``data/kit_tiny_output.json`` was run on (``python -m tests.lorr.tiny_kit_instance
 DIR`` writes it; the golden file is the kit 3.1.0's output of 90 ticks of it with the
-entry's three components)."""
+entry's three components), and :func:`station_instance`, the same floor with two stations
+where the station cap binds."""
 
 import dataclasses
 import sys
