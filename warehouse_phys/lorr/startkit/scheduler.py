@@ -160,10 +160,8 @@ class EntryScheduler:
             current = np.asarray(current, np.int64)
             going = np.concatenate([current[np.asarray(unopened, bool) & (current >= 0)],
                                     proposal[claim], self.held[self.held >= 0]])  # fmt: skip
-            order = np.argsort(ids, kind="stable")
-            slot = np.minimum(np.searchsorted(ids[order], going), len(ids) - 1)
-            listed = ids[order][slot] == going
-            goals = next_stop[order][slot[listed]]
+            at, listed = _positions(ids, going)
+            goals = next_stop[at[listed]]
             # A robot paired again counts as on its way, and its own task stays offered.
             offered = offered_within_cap(next_stop[untaken], goals, self.station_cap,
                                          held=np.isin(ids[untaken], current[again]))  # fmt: skip
@@ -194,12 +192,18 @@ class EntryScheduler:
         again = np.zeros(len(proposal), bool)
         if not len(ids):
             return again
-        order = np.argsort(ids, kind="stable")
-        slot = np.minimum(np.searchsorted(ids[order], proposal), len(ids) - 1)
-        listed = (proposal >= 0) & (ids[order][slot] == proposal)
-        robots = np.flatnonzero(unopened & listed)
+        at, listed = _positions(ids, proposal)
+        robots = np.flatnonzero(unopened & listed & (proposal >= 0))
         distances = getattr(self.scheduler, "distances", None)
-        picked = rematch_candidates(cells[robots], next_stop[order][slot[robots]], self.cols,
-                                    distances)  # fmt: skip
+        picked = rematch_candidates(cells[robots], next_stop[at[robots]], self.cols, distances)
         again[robots[picked]] = True
         return again
+
+
+def _positions(ids: np.ndarray, wanted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where each of ``wanted`` (task ids) is in ``ids`` (the open tasks' ids, not empty),
+    and whether it is there at all (``(len(wanted),)`` each; a position of a task not
+    there is meaningless)."""
+    order = np.argsort(ids, kind="stable")
+    slot = np.minimum(np.searchsorted(ids[order], wanted), len(ids) - 1)
+    return order[slot], ids[order[slot]] == wanted
