@@ -91,9 +91,10 @@ def test_traffic_grants_every_guided_plan_on_any_floor(
     data=st.data(),
 )
 def test_plans_are_granted_and_the_flow_is_what_the_paths_have_left(rows, cols, shelf_bits, data):
-    """Any robots and goals, robots moved as traffic grants (pushes, rejoins, new goals,
-    pool compaction): every plan is granted, and the flow always equals the moves left on
-    the stored guide paths."""
+    """Any robots and goals, robots moved as traffic grants (pushes, rejoins, reroutes
+    that keep a path's tail, new goals, pool compaction): every plan is granted, the flow
+    always equals the moves left on the stored guide paths, and no path holds a cell
+    twice."""
     layout = [["#" if (shelf_bits >> (r * 8 + c)) & 1 and (r + c) % 2 else "."
                for c in range(cols)] for r in range(rows)]  # fmt: skip
     try:
@@ -103,9 +104,9 @@ def test_plans_are_granted_and_the_flow_is_what_the_paths_have_left(rows, cols, 
     free = [(r, c) for r in range(rows) for c in range(cols) if layout[r][c] == "."]
     cells = np.array(data.draw(st.lists(st.sampled_from(free), min_size=1, unique=True)))
     n = len(cells)
-    rejoin = data.draw(st.booleans())
-    planner = GuidedPIBT(grid, seed=data.draw(st.integers(0, 99)),
-                         config=GuidanceConfig(refresh=1, window=3, rejoin=rejoin))  # fmt: skip
+    rejoin, reroute = data.draw(st.booleans()), data.draw(st.integers(0, 3))
+    config = GuidanceConfig(refresh=1, window=3, rejoin=rejoin, reroute=reroute)
+    planner = GuidedPIBT(grid, seed=data.draw(st.integers(0, 99)), config=config)
     for step in range(8):
         if step % 3 == 0:
             goals = np.array(data.draw(st.lists(st.sampled_from(free), min_size=n, max_size=n)))
@@ -116,23 +117,29 @@ def test_plans_are_granted_and_the_flow_is_what_the_paths_have_left(rows, cols, 
         guidance = planner.guidance
         assert (guidance.flow >= 0).all()
         np.testing.assert_array_equal(guidance.flow, flow_of_paths(guidance))
+        paths = guidance._paths
+        for i in np.flatnonzero(paths.moves >= 0).tolist():
+            path = paths.pool[paths.start[i] : paths.start[i] + paths.moves[i] + 1]
+            assert len(np.unique(path)) == len(path)
         if step == 4:
             guidance._paths.compact(0)
             np.testing.assert_array_equal(guidance.flow, flow_of_paths(guidance))
 
 
-@pytest.mark.parametrize("name", ["guided-ops-repair", "guided-repair"])
-def test_a_turning_fleets_flow_is_its_lanes_and_what_its_paths_have_left(name):
+@pytest.mark.parametrize(
+    ("name", "reroute"), [("guided-ops-repair", 0), ("guided-repair", 0), ("guided-ops-repair", 4)]
+)
+def test_a_turning_fleets_flow_is_its_lanes_and_what_its_paths_have_left(name, reroute):
     """A lifelong turning fleet with the repair (over operations or one step at a time),
     its one-way lanes laid, robots pushed off their paths, new goals at every delivery,
     and the one over operations handed over to unrepaired one-step plans at step 40 and
     back at step 80 (for the other, both change nothing): the flow
     stays the lanes' phantom paths plus the moves left on the stored guide paths, step
     after step (a path dropped without its flow would leave phantom traffic that grows
-    over a long run)."""
+    over a long run), robots pushed off long paths keeping their tails too."""
     env = fleet.parallel_env(num_robots=60, layout="kiva-33-46", starts="random",
                              moves="rotate", on_delivery="new_package", max_cycles=120)  # fmt: skip
-    policy = planner_policy(name, 3)
+    policy = planner_policy(name, 3, reroute=reroute)
     observations, infos = env.reset(seed=3)
     for step in range(120):
         if step == 40:

@@ -132,3 +132,53 @@ def test_a_facing_that_is_not_one_move_a_robot_is_refused_and_nothing_changes(fa
     assert not guidance.flow.any()
     guidance.update(np.array([0]), np.array([7]), np.ones(1, dtype=bool), facing=np.array([2]))
     assert guidance.flow.sum() == 7
+
+
+#: Two aisles 16 cells long, joined at both ends.
+LONG_AISLES = ["................", ".##############.", "................"]
+
+
+@pytest.mark.parametrize(
+    ("reroute", "kept_to_the_top"), [(0, False), (2, True), (6, False), (7, False)]
+)
+def test_a_robot_pushed_off_a_long_path_searches_only_so_far_with_reroute(reroute, kept_to_the_top):
+    """A robot's guide path runs east along the top aisle; traffic then comes the other
+    way along it, and the robot is pushed back off its path. A new search to the goal
+    takes the bottom aisle. With ``reroute=2`` it searches only to the path's cell two
+    past where it stood, and keeps the top aisle from there. With 6 that search itself
+    goes round by the bottom aisle and meets the old path at the goal: the path leaves
+    it there (no cell twice, no way back along the top); with 7 the path has no more than
+    twice that many cells left, and is searched anew."""
+    grid = WarehouseGrid.from_layout(LONG_AISLES)
+    guidance = TrafficGuidance(grid, GuidanceConfig(reroute=reroute))
+    goal, active = np.array([15]), np.ones(1, dtype=bool)
+    guidance.update(np.array([2]), goal, active)
+    paths = guidance._paths
+    first = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1].copy()
+    assert guidance._cell_row[first].max() == 0  # along the top
+    guidance.flow[guidance._column[np.arange(1, 16)], 0] += 5  # traffic going west on top
+    guidance.update(np.array([0]), goal, active)
+    assert guidance.searches == 1
+    cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1]
+    assert cells[0] == guidance._column[0]
+    assert cells[-1] == guidance._column[15]
+    assert len(set(cells.tolist())) == len(cells)
+    assert (guidance._cell_row[cells].max() == 0) == kept_to_the_top
+    if kept_to_the_top:
+        np.testing.assert_array_equal(cells[-(len(first) - reroute) :], first[reroute:])
+
+
+def test_a_refreshed_guide_path_is_searched_whole_with_reroute():
+    """``refresh`` searches a robot's whole path anew, ``reroute`` or not: a robot still
+    on its path along the top aisle, traffic then coming the other way along it, is
+    refreshed onto the bottom aisle."""
+    grid = WarehouseGrid.from_layout(LONG_AISLES)
+    guidance = TrafficGuidance(grid, GuidanceConfig(reroute=2, refresh=1))
+    goal, active = np.array([15]), np.ones(1, dtype=bool)
+    guidance.update(np.array([2]), goal, active)
+    guidance.flow[guidance._column[np.arange(1, 16)], 0] += 5  # traffic going west on top
+    guidance.update(np.array([2]), goal, active)
+    assert guidance.searches == 1
+    paths = guidance._paths
+    cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1]
+    assert guidance._cell_row[cells].max() == 2

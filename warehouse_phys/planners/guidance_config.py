@@ -26,7 +26,7 @@ class GuidanceConfig:
 
     Raises:
         ValueError: for a weight, cost, count or bound out of its range.
-        TypeError: for a ``turn_lane_paths`` that is not an int.
+        TypeError: for a lane count or ``reroute`` that is not an int.
     """
 
     #: Cost of a move per guide path leaving the cell it enters [moves].
@@ -76,6 +76,11 @@ class GuidanceConfig:
     #: Whether a robot pushed aside or back, one move off its guide path, rejoins it
     #: (else a new search; a robot beside a cell further along always rejoins).
     rejoin: bool = False
+    #: A robot pushed off its guide path with more than twice this many cells of it left
+    #: searches only to the path's cell this many past where it stood, and keeps the path
+    #: from there [cells] (0: a new search to the goal). Cheaper steps where guide paths
+    #: are long, for a little throughput (the documentation's LoRR page).
+    reroute: int = 0
     #: Guide paths searched as one batch, against the same flow (1: each search sees every
     #: path before it). A batch's paths depend on the batch alone, so a step's plans are
     #: the same for any number of ``workers``.
@@ -116,6 +121,10 @@ class GuidanceConfig:
         if self.search_batch < 1 or not 1 <= self.workers <= 64:
             raise ValueError(f"search_batch must be >= 1 and workers in 1..64, got "
                              f"{self.search_batch!r} and {self.workers!r}")  # fmt: skip
+        if isinstance(self.reroute, bool) or not isinstance(self.reroute, int | np.integer):
+            raise TypeError(f"reroute must be an int, got {self.reroute!r}")
+        if self.reroute < 0:
+            raise ValueError(f"reroute must be >= 0, got {self.reroute!r}")
         if self.refresh < 0 or self.window < 1:
             raise ValueError(f"refresh must be >= 0 and window >= 1, got {self!r}")
         if self.max_searches is not None and self.max_searches < 0:

@@ -15,6 +15,10 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   (paths v->u)`` (:func:`~warehouse_phys.planners.traffic_flow.congestion_path`). A robot
   that moved beside a cell further along its path rejoins it there without a search
   (``rejoin=True``: also one pushed aside; on MR23-I-10 searching anew did better).
+  Long guide paths make the searches of pushed robots dear (each prices the whole way
+  to the goal again), so a robot pushed off a path with more than ``2 * reroute`` cells
+  left may search only to the path's cell ``reroute`` past where it stood, and keep the
+  path from there (``reroute``; 0, the default: a new search to the goal).
 - Turning robots (``moves="rotate"``): a quarter turn costs ``turn_cost`` more in their
   guide paths' search, from the way the robot faces when it is searched, so of equally
   priced paths it takes one with few turns (on MR23-I-10, 6 % more errands over the first
@@ -248,7 +252,7 @@ class TrafficGuidance:
         self._turn = (self._turn + max(1, self.config.refresh)) % max(n, 1)
         budget = self.config.max_searches
         self.searches, self.timed_out = 0, 0
-        robots = [*needed, *others]
+        robots, refreshed = [*needed, *others], set(others)
         begun = time.perf_counter()
         while self.searches < len(robots):
             if (budget is not None and self.searches >= budget) or (
@@ -262,17 +266,42 @@ class TrafficGuidance:
             if budget is not None:
                 size = min(size, budget - self.searches)
             batch = robots[self.searches : self.searches + size]
+            tails = self._tails(batch, refreshed)
             self._drop(np.array(batch))
-            for i, found in zip(batch, self._search(batch, column), strict=True):
+            for i, found in zip(batch, self._search(batch, column, tails), strict=True):
                 status[i] = 0 if found else 1
             self.searches += len(batch)
         self.search_seconds = time.perf_counter() - begun
 
-    def _search(self, robots: list[int], column: np.ndarray) -> list[bool]:
+    def _tails(self, robots: list[int], refreshed: set[int]) -> list[np.ndarray | None]:
+        """For each of ``robots``, what its new guide path keeps of its old one: with
+        ``config.reroute``, a robot still holding a path with more than twice that many
+        cells left past where it stood on it (one pushed off it; a robot with a new goal
+        has none) keeps the path's cells from ``reroute`` past that cell on (map
+        columns); None for the others, whose paths are searched to their goals, and for
+        the robots ``refreshed`` (``refresh``: whole paths searched anew)."""
+        reach, paths = self.config.reroute, self._paths
+        tails: list[np.ndarray | None] = [None] * len(robots)
+        if not reach:
+            return tails
+        for k, i in enumerate(robots):
+            moves, at = paths.moves[i], paths.cursor[i]
+            if i in refreshed:
+                continue
+            if moves >= 0 and moves - at > 2 * reach:
+                first = paths.start[i] + at + reach
+                tails[k] = paths.pool[first : paths.start[i] + moves + 1].copy()
+        return tails
+
+    def _search(
+        self, robots: list[int], column: np.ndarray, tails: list[np.ndarray | None]
+    ) -> list[bool]:
         """The guide paths of ``robots`` from where they stand (map columns ``column``) to
         their goals, searched as one batch (:mod:`~warehouse_phys.planners.guide_searches`),
         stored and added to the flow in order; for each, False if its goal cannot be
-        reached."""
+        reached. A robot with a tail (:meth:`_tails`) is searched to the tail's first
+        cell, and its path leaves the search's where that first meets the tail (perhaps
+        before its end: no cell twice) and goes on along the tail."""
         paths, config = self._paths, self.config
         contraflow = config.contraflow_weight
         if self._facing is not None and config.turn_contraflow_weight is not None:
@@ -281,13 +310,17 @@ class TrafficGuidance:
                           config.turn_cost or 0.0, config.turn_traffic_weight])  # fmt: skip
         turning = self._facing is not None and config.turn_cost is not None
         facings = [int(self._facing[i]) if turning else -1 for i in robots]
-        goals = [int(self._column[paths.goal[i]]) for i in robots]
+        goals = [int(self._column[paths.goal[i]]) if tail is None else int(tail[0])
+                 for i, tail in zip(robots, tails, strict=True)]  # fmt: skip
         sources = [int(column[i]) for i in robots]
         found = self._searches.search(self._graph, self.flow, self.lanes, sources, goals,
                                       facings, costs)  # fmt: skip
-        for i, path in zip(robots, found, strict=True):
+        for i, path, tail in zip(robots, found, tails, strict=True):
             if path is None:
                 continue
+            if tail is not None:  # leave the search's path where it first meets the tail
+                meet = int(np.argmax(np.isin(path, tail)))
+                path = np.concatenate([path[:meet], tail[int(np.argmax(tail == path[meet])) :]])
             moves = len(path) - 1
             if paths.used + moves + 2 > len(paths.pool):
                 paths.compact(moves + 2)
