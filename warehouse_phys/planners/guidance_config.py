@@ -78,8 +78,9 @@ class GuidanceConfig:
     rejoin: bool = False
     #: A robot pushed off its guide path with more than twice this many cells of it left
     #: searches only to the path's cell this many past where it stood, and keeps the path
-    #: from there [cells] (0: a new search to the goal). Cheaper steps where guide paths
-    #: are long, for a little throughput (the documentation's LoRR page).
+    #: from there [cells] (0: a new search to the goal). On 2024 GAME's long paths the
+    #: steps cost a fifth for the same tasks; on SORTATION twice as much, for fewer
+    #: (the documentation's LoRR page, ``docs/lorr.md``).
     reroute: int = 0
     #: Guide paths searched as one batch, against the same flow (1: each search sees every
     #: path before it). A batch's paths depend on the batch alone, so a step's plans are

@@ -286,9 +286,7 @@ class TrafficGuidance:
             return tails
         for k, i in enumerate(robots):
             moves, at = paths.moves[i], paths.cursor[i]
-            if i in refreshed:
-                continue
-            if moves >= 0 and moves - at > 2 * reach:
+            if i not in refreshed and moves >= 0 and moves - at > 2 * reach:
                 first = paths.start[i] + at + reach
                 tails[k] = paths.pool[first : paths.start[i] + moves + 1].copy()
         return tails
