@@ -130,6 +130,27 @@ def test_refused_arguments_are_one_line_and_exit_2(tmp_path, capsys, argv, messa
     assert err.count("\n") == 1
 
 
+def test_without_ray_the_suite_exits_2_with_the_install_line_and_writes_nothing(
+    tmp_path, monkeypatch, capsys
+):
+    import importlib.util
+
+    real_find_spec = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: None if name.split(".")[0] == "ray" else real_find_spec(name, *a),
+    )
+    out = tmp_path / "out"
+    argv = ["--instances", str(tiny_instance(tmp_path)), "--out", str(out)]
+    assert evaluate_cli.main(argv) == 2
+    assert capsys.readouterr().err == (
+        f"{PROG}: error: each run is a task on Ray, which is not installed: "
+        'pip install "warehouse_phys[ray]"\n'
+    )
+    assert not out.exists()
+
+
 def test_a_suite_on_ray_writes_its_table_and_resumes(tmp_path, capsys):
     archive = fake_archive(tmp_path / "archive", tiny_instance(tmp_path))
     out = tmp_path / "suite"

@@ -21,7 +21,8 @@ command again with the same ``--out`` resumes, running only what is not finished
 suite then writes ``results.csv``, ``results.md`` and ``results.png``
 (:mod:`~warehouse_phys.apps.evaluate.report`).
 
-A refused argument or input file is one line and exit status 2; runs that failed are in
+A refused argument or input file is one line and exit status 2 (so is a machine without
+Ray: ``pip install "warehouse_phys[ray]"``); runs that failed are in
 the table with their error and the status is 1; Ctrl-C or SIGTERM stops the suite with
 finished runs kept (130, 143). Two suites into one folder at once are refused.
 """
@@ -30,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import fcntl
+import importlib.util
 import json
 import os
 import signal
@@ -48,6 +50,7 @@ from warehouse_phys.apps.evaluate.best_known import (
 from warehouse_phys.apps.evaluate.report import RESULTS_CSV, write_results
 from warehouse_phys.apps.evaluate.suite import Job, finished_rows, run_job, write_row
 from warehouse_phys.apps.interrupts import Terminated, stops_on_sigterm
+from warehouse_phys.apps.sweep import INSTALL_RAY
 from warehouse_phys.apps.sweep.on_ray import RayUnavailableError, check_address, ray_session
 from warehouse_phys.lorr.station_cap import STATION_CAP
 
@@ -163,6 +166,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         jobs = jobs_from_args(args)
+        if importlib.util.find_spec("ray") is None:  # before its folder is made
+            raise UsageError(f"each run is a task on Ray, which is not installed: {INSTALL_RAY}")
         if args.address is not None:
             check_address(args.address)
         out = args.out or DEFAULT_DIR / time.strftime("%Y%m%d-%H%M%S")
