@@ -264,3 +264,14 @@ def test_no_package_holds_more_than_a_dozen_modules_side_by_side():
         if len(modules) > MAX_MODULES_SIDE_BY_SIDE:
             crowded[str(init.parent.relative_to(ROOT))] = len(modules)
     assert crowded == {}, f"packages that became halls again: {crowded}"
+
+
+def test_importing_the_package_leaves_the_heavy_optional_modules_unloaded(run_python):
+    # A fresh `import warehouse_phys` (every command and subprocess pays it) takes about
+    # 0.3 s; scipy.ndimage alone would add as much. Modules that need it import it where
+    # they use it (the controller check builds its probe floor on first use).
+    loaded = run_python(
+        "import sys, warehouse_phys\n"
+        "print(sorted(m for m in ('scipy.ndimage', 'matplotlib', 'ray') if m in sys.modules))"
+    )
+    assert loaded.strip() == "[]"

@@ -80,9 +80,16 @@ def penetration(grid: WarehouseGrid, radius: float, path: np.ndarray) -> np.ndar
     return depth
 
 
-#: The floor the controller is tried on: room to overshoot in every direction, walls
-#: and a shelf to bump into along both axes.
-_PROBE_FLOOR = WarehouseGrid.from_layout([".....", ".....", "...#.", ".....", "....."])
+@functools.cache
+def probe_floor() -> WarehouseGrid:
+    """The floor the controllers are tried on (:func:`check_controller` and the tick
+    controller's check): room to overshoot in every direction, open cells beside the
+    walls, and a shelf to bump into along both axes.
+
+    Built on first use rather than at import: a floor drawn as text labels its regions
+    with scipy.ndimage, which is a third of the package's import time.
+    """
+    return WarehouseGrid.from_layout([".....", ".....", "...#.", ".....", "....."])
 
 
 #: (start, actions) of each probe; every move's cell is checked against the grid rules.
@@ -169,11 +176,12 @@ def check_controller(config: PhysicsConfig, *, turning: bool = False) -> Control
     advice = "raise max_force, max_speed or gain, or lengthen move_duration"
     radius = config.robot_radius / config.cell_size
     overshoot = bump_overshoot = drift = 0.0
+    floor = probe_floor()
     for start, actions in _PROBES:
-        world = PhysicsWorld(_PROBE_FLOOR, config, start, record_path=True)
+        world = PhysicsWorld(floor, config, start, record_path=True)
         cell = start
         for action in actions:
-            expected = _PROBE_FLOOR.move(cell, action)
+            expected = floor.move(cell, action)
             kind = "a free move" if expected != cell else "a bump into a wall or shelf"
             name = f"{kind} from {tuple(cell)} ({Action(action).name})"
             try:
@@ -181,7 +189,7 @@ def check_controller(config: PhysicsConfig, *, turning: bool = False) -> Control
             except RuntimeError as error:
                 raise ValueError(f"with these settings {name} fails: {error}; {advice}") from None
             path = world.last_path
-            depth = float(penetration(_PROBE_FLOOR, radius, path).max())
+            depth = float(penetration(floor, radius, path).max())
             if depth > PENETRATION_TOLERANCE:
                 raise ValueError(
                     f"with these settings {name} drives the robot {depth:.3g} cells into a "
@@ -218,13 +226,14 @@ def _turning_motion(config: PhysicsConfig, advice: str) -> ControllerMotion:
 
     radius = config.robot_radius / config.cell_size
     found = np.zeros(3)
-    cols = _PROBE_FLOOR.cols
+    floor = probe_floor()
+    cols = floor.cols
     for start, heading, actions in _TURN_PROBES:
-        world = BatchedPhysicsWorld(_PROBE_FLOOR, config, [start], record_path=True,
+        world = BatchedPhysicsWorld(floor, config, [start], record_path=True,
                                     headings=[heading])  # fmt: skip
         here, facing = np.array([start.row * cols + start.col]), np.array([heading])
         for action in actions:
-            grants = turning_moves(_PROBE_FLOOR, here, facing, np.array([action]), None)
+            grants = turning_moves(floor, here, facing, np.array([action]), None)
             name = f"{TurnAction(action).name} from {divmod(int(here[0]), cols)} facing {facing[0]}"
             ends = np.stack(np.divmod(grants.ends, cols), axis=1)
             try:
@@ -232,7 +241,7 @@ def _turning_motion(config: PhysicsConfig, advice: str) -> ControllerMotion:
             except RuntimeError as error:
                 raise ValueError(f"with these settings {name} fails: {error}; {advice}") from None
             path = world.last_paths[0]
-            depth = float(penetration(_PROBE_FLOOR, radius, path).max())
+            depth = float(penetration(floor, radius, path).max())
             wrong = (cells != ends).any() or headings[0] != grants.headings[0]
             if wrong or depth > PENETRATION_TOLERANCE or not snap[0] < SNAP_ERROR_BOUND / 2:
                 raise ValueError(

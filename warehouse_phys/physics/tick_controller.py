@@ -32,6 +32,7 @@ from warehouse_phys.physics.config import (
     SNAP_ERROR_BOUND,
     PhysicsConfig,
 )
+from warehouse_phys.physics.controller import probe_floor
 from warehouse_phys.physics.engine import new_space
 from warehouse_phys.physics.tick_arguments import _first, _pair
 from warehouse_phys.physics.ticking import (
@@ -43,7 +44,7 @@ from warehouse_phys.physics.ticking import (
     tick_fractions,
     tracking_errors,
 )
-from warehouse_phys.world.grid import ACTION_DELTAS, WarehouseGrid
+from warehouse_phys.world.grid import ACTION_DELTAS
 from warehouse_phys.world.headings import TurnAction, turned
 
 
@@ -221,8 +222,6 @@ def required_min_gap(
     return gap
 
 
-#: The check's floor: open cells beside walls and round a shelf.
-_PROBE_FLOOR = WarehouseGrid.from_layout([".....", ".....", "...#.", ".....", "....."])
 #: (start, moves) the probe robots make: a loop round the floor's walls (four straight
 #: runs, four corners), a loop round the shelf (corners beside it), and a square with
 #: reversals (every direction after every other).
@@ -295,10 +294,11 @@ def _run_probes(config: PhysicsConfig, ticks: int, steps: int) -> tuple[float, f
     """Run the probes; the largest tracking error, sideways drift and snap error [cells],
     and the first move read on another cell than the grid twin's (empty if none)."""
     plans = _plan_arrays(_probe_patterns(ticks), tuple(moves for _, moves in _PROBE_ROUTES))
-    moves, patterns, needed, cols = plans.actions, plans.patterns, plans.needed, _PROBE_FLOOR.cols
+    floor = probe_floor()
+    moves, patterns, needed, cols = plans.actions, plans.patterns, plans.needed, floor.cols
     starts = np.array([_PROBE_ROUTES[r][0] for r in plans.route_of], dtype=np.int64)
-    world = BatchedPhysicsWorld(_PROBE_FLOOR, config, starts, record_path=True)
-    twin = AsyncGrid(_PROBE_FLOOR, starts[:, 0] * cols + starts[:, 1], needed)
+    world = BatchedPhysicsWorld(floor, config, starts, record_path=True)
+    twin = AsyncGrid(floor, starts[:, 0] * cols + starts[:, 1], needed)
     deltas = np.array(ACTION_DELTAS, dtype=np.int64)
     robots = np.arange(len(needed))
     since, made = np.zeros(len(needed), dtype=np.int64), np.zeros(len(needed), dtype=np.int64)
@@ -349,7 +349,7 @@ def _run_turning_probes(
     actions, patterns, needed = plans.actions, plans.patterns, plans.needed
     cells = np.array([_TURN_ROUTES[r][0] for r in plans.route_of], dtype=np.int64)
     facing = np.array([_TURN_ROUTES[r][1] for r in plans.route_of], dtype=np.int64)
-    world = BatchedPhysicsWorld(_PROBE_FLOOR, config, cells, record_path=True, headings=facing)
+    world = BatchedPhysicsWorld(probe_floor(), config, cells, record_path=True, headings=facing)
     robots, found = np.arange(len(needed)), np.zeros(5)
     done, since, made = (np.zeros(len(needed), dtype=np.int64) for _ in range(3))
     while (made < plans.counts).any():
