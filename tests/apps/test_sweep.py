@@ -7,10 +7,13 @@ import sys
 import time
 
 import gymnasium as gym
+import numpy as np
 import pytest
 
 from warehouse_phys import sweep as sweep_cli
 from warehouse_phys.apps.runs import RUN_FILES
+from warehouse_phys.apps.sweep import on_ray as sweep_ray
+from warehouse_phys.apps.sweep import trials as sweep_trials
 from warehouse_phys.rl.greedy_policy import evaluate
 from warehouse_phys.rl.qlearning import load_q_table
 
@@ -70,6 +73,18 @@ def test_a_sweep_on_ray_records_every_trial_resumes_and_reports_failures(tmp_pat
         )
         started[row["trial"]] = json.loads((folder / "summary.json").read_text())["started"]
         started[row["trial"] + "/mtime"] = (folder / "qtable.npz").stat().st_mtime_ns
+
+    # Ray's workers run trial after trial (reuse_actors): each table is still the one
+    # its trial makes on its own, here in this process.
+    alone = tmp_path / "alone"
+    trials = sweep_trials.trials_from_args(sweep_cli.build_parser().parse_args(SWEEP))
+    for trial in trials:
+        if trial.folder != BLOCKED:
+            sweep_ray.run_trial(trial.to_job(alone, gif=False))
+            np.testing.assert_array_equal(
+                load_q_table(alone / trial.folder / "qtable.npz")[0],
+                load_q_table(out / trial.folder / "qtable.npz")[0],
+            )
 
     # The same command again, the obstacle gone: only the failed trial trains.
     (out / BLOCKED).unlink()
