@@ -50,6 +50,55 @@ def test_the_guided_planner_is_chosen_by_name(tmp_path, capsys):
     assert summary["deliveries"] > 0
 
 
+def test_guidance_reaches_the_planner_and_is_recorded(tmp_path, capsys):
+    # guided-paths is guided with the traffic prices at 0: set through --guidance on
+    # guided, the same run, step for step; guided's own prices plan differently.
+    def run(name, *guidance):
+        out = tmp_path / f"{name}{len(guidance)}"
+        argv = ["--layout", "warehouse", "--robots", "24", "--steps", "60", "--policy", name,
+                *guidance, "--frames", "0", "--no-compare", "--out", str(out),
+                "--quiet"]  # fmt: skip
+        assert main(argv) == 0, capsys.readouterr().err
+        return json.loads((out / "summary.json").read_text())
+
+    paths = run("guided-paths")
+    prices_off = run("guided", "--guidance", '{"vertex_weight": 0, "contraflow_weight": 0}')
+    assert prices_off["deliveries_per_step"] == paths["deliveries_per_step"]
+    assert prices_off["waits"] == paths["waits"]
+    assert prices_off["guidance"] == {"vertex_weight": 0, "contraflow_weight": 0}
+    guided = run("guided")
+    assert "guidance" not in guided
+    assert (guided["deliveries_per_step"], guided["waits"]) != (
+        paths["deliveries_per_step"], paths["waits"]
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--guidance", '{"reroute": 4}'],
+         "--guidance sets a guided planner's fields; --policy pibt has none"),
+        (["--policy", "shortest", "--guidance", '{"reroute": 4}'], "--policy shortest has none"),
+        (["--policy", "guided", "--guidance", '{"reroute": -1}'],
+         "--guidance: reroute must be >= 0, got -1"),
+        (["--policy", "guided", "--guidance", '{"nope": 1}'],
+         "--guidance: planner 'guided' has no field 'nope'"),
+        (["--policy", "guided", "--guidance", "[1]"],
+         "argument --guidance: expected a JSON object of planner fields"),
+        (["--policy", "guided", "--guidance", "{"], "expected a JSON object of planner fields"),
+        (["--policy", "guided", "--p-delay", "0.01", "--guidance", '{"reroute": 4}'],
+         "--guidance sets the lock-step fleet's planner: a run on ticks plans with"),
+    ],
+)  # fmt: skip
+def test_guidance_that_cannot_apply_ends_in_one_line(argv, message, capsys, tmp_path):
+    assert main(["--robots", "2", "--steps", "3", *argv, "--out", str(tmp_path / "x"),
+                 "--quiet"]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert message in err
+    assert err.count("\n") == 1
+    assert not (tmp_path / "x").exists()
+
+
 @pytest.mark.parametrize("name", PLANNERS)
 def test_every_planner_runs_by_its_name(name, tmp_path, capsys):
     # PLANNERS is the planners' one list (rl/fleet_planners.py): a planner added there

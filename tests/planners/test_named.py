@@ -50,3 +50,13 @@ def test_unknown_names_and_guidance_for_plain_pibt_are_refused():
         named_planner("lacam", FLOOR)
     with pytest.raises(ValueError, match="plain PIBT takes no guidance"):
         planner_setup("pibt", time_limit=1.0)
+
+
+def test_a_field_the_planner_lacks_is_refused_naming_its_fields():
+    with pytest.raises(TypeError, match="planner 'guided' has no field 'nope'; its fields: "
+                       "vertex_weight, contraflow_weight"):  # fmt: skip
+        planner_setup("guided", nope=1)
+    # The repair's fields belong to the repairing planners alone.
+    with pytest.raises(TypeError, match="planner 'guided' has no field 'iterations'"):
+        planner_setup("guided", iterations=7)
+    assert planner_setup("guided-repair", iterations=7).repair["iterations"] == 7

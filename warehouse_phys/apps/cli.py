@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import json
 import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -114,6 +115,32 @@ def bounded_int(minimum: int, what: str, maximum: int | None = None) -> Any:
         return value
 
     return parse
+
+
+def guidance_fields(text: str) -> dict[str, Any]:
+    """An argument type: a JSON object of a guided planner's fields (those of
+    :class:`~warehouse_phys.planners.guidance_config.GuidanceConfig`, and a repairing
+    planner's repair), such as ``{"reroute": 32}``; the planner checks the fields."""
+    try:
+        fields = json.loads(text)
+    except ValueError:
+        fields = None
+    if not isinstance(fields, dict):
+        shown = text if len(text) <= 40 else f"{text[:40]}..."
+        raise argparse.ArgumentTypeError(
+            f"expected a JSON object of planner fields, such as '{{\"reroute\": 32}}', "
+            f"got {shown!r}"
+        )
+    return fields
+
+
+def add_guidance_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--guidance JSON`` (:func:`guidance_fields`; default ``{}``, the defaults)."""
+    parser.add_argument(
+        "--guidance", type=guidance_fields, default={}, metavar="JSON",
+        help="the guided planners' fields, a JSON object: GuidanceConfig's (such as "
+        "'{\"reroute\": 32}') and the repair's (neighbourhood, iterations, repair_time_limit)",
+    )  # fmt: skip
 
 
 def add_env_argument(parser: argparse.ArgumentParser, *, default: str | None, note: str) -> None:

@@ -85,6 +85,8 @@ def planner_setup(name: str, **guidance: Any) -> PlannerSetup:
 
     Raises:
         ValueError: for an unknown name, or guidance given to plain PIBT.
+        TypeError: naming a field that neither the guidance nor (for a repairing
+            planner) the repair has.
     """
     if name == "pibt":
         if guidance:
@@ -93,6 +95,12 @@ def planner_setup(name: str, **guidance: Any) -> PlannerSetup:
     if name not in PLANNERS:
         raise ValueError(f"unknown planner {name!r}; known: {', '.join(PLANNERS)}")
     repair = dict(REPAIR) if name in PLANNER_REPAIRS else None
+    known = [field.name for field in dataclasses.fields(GuidanceConfig)]
+    known += list(REPAIR_FIELDS) if repair is not None else []
+    unknown = sorted(set(guidance) - set(known))
+    if unknown:
+        raise TypeError(f"planner {name!r} has no field {unknown[0]!r}; its fields: "
+                        f"{', '.join(known)}")  # fmt: skip
     if repair is not None:
         repair |= {REPAIR_FIELDS[key]: guidance.pop(key) for key in list(guidance)
                    if key in REPAIR_FIELDS}  # fmt: skip

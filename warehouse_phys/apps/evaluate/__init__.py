@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import fcntl
 import importlib.util
-import json
 import os
 import signal
 import sys
@@ -40,7 +39,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int
+from warehouse_phys.apps.cli import (
+    ArgumentParser,
+    UsageError,
+    add_guidance_argument,
+    bounded_int,
+)
 from warehouse_phys.apps.evaluate.best_known import (
     DEFAULT_STEPS,
     best_known_for,
@@ -80,8 +84,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "assignment[=W], rematch[=W] (the assignment, robots on their way "
                         "to a task not opened paired again) or rematch-capped[=W] (the same, "
                         f"at most {STATION_CAP} robots on their way to one station)")  # fmt: skip
-    parser.add_argument("--guidance", type=json.loads, default={}, metavar="JSON",
-                        help="the guided planners' GuidanceConfig fields")  # fmt: skip
+    add_guidance_argument(parser)
     parser.add_argument("--out", type=Path, help="the suite's folder (evaluations/<time>)")
     parser.add_argument("--address", help="a Ray cluster's host:port (default: a local Ray)")
     parser.add_argument("--cpus-per-run", type=bounded_int(1, "a positive number of CPUs"),

@@ -16,7 +16,8 @@ of ``--robots`` robots on ``--layout`` (a preset, a shipped benchmark map's name
 ``.map`` file or a text layout file; or ``--rows``/``--cols``) follows ``--policy`` for
 ``--steps`` joint steps: a planner of :data:`~warehouse_phys.rl.fleet_planners.PLANNERS` by its name
 (``pibt``, the planner of :mod:`warehouse_phys.planners.pibt`, by default; ``guided`` and
-its ablations; those of :data:`~warehouse_phys.rl.fleet_planners.TURNING_ONLY` for
+its ablations, whose fields ``--guidance '{"reroute": 32}'`` sets; those of
+:data:`~warehouse_phys.rl.fleet_planners.TURNING_ONLY` for
 turning robots), ``shortest`` (each
 robot a shortest move, waiting when blocked), ``random``, or a fleet table written by
 ``python -m warehouse_phys.train --robots N``. ``--on-delivery``
@@ -68,6 +69,7 @@ policies by name, the run folder's files).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import gc
 import sys
@@ -81,6 +83,7 @@ from warehouse_phys.apps.cli import (
     MAX_CLI_ROBOTS,
     ArgumentParser,
     UsageError,
+    add_guidance_argument,
     bounded_int,
     floor_from_layout,
     opened_run_folder,
@@ -128,7 +131,7 @@ from warehouse_phys.lorr.scheduling_assignment import SCHEDULER_NAMES, scheduler
 from warehouse_phys.lorr.startkit.system import KitSystem
 from warehouse_phys.lorr.station_cap import STATION_CAP
 from warehouse_phys.rl.fleet_evaluation import FleetPolicy
-from warehouse_phys.rl.fleet_planners import PLANNERS
+from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
 from warehouse_phys.world.headings import MOVE_MODELS
 from warehouse_phys.world.layouts import FLEET_PRESETS, PRESETS
 from warehouse_phys.world.maps import MAPS
@@ -205,6 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
         "traffic-priced guide paths; *-ops, *-repair: turning robots only, --moves rotate); "
         f"a baseline: {', '.join(BASELINE_POLICIES)}; or a fleet table (.npz) from train",
     )
+    add_guidance_argument(parser)
     parser.add_argument(
         "--steps", type=bounded_int(1, f"a number of steps from 1 to {MAX_STEPS:,}", MAX_STEPS),
         help=f"joint steps (default {DEFAULT_STEPS}; an instance: {INSTANCE_STEPS:,}); on "
@@ -306,6 +310,8 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
         raise UsageError("--scheduler hands out an instance's tasks: give --instance")
     if args.physics_threads != 1 and not args.physics:
         raise UsageError("--physics-threads steps the physics twin's bodies: give --physics")
+    if args.guidance:
+        _check_guidance(args.policy, args.guidance)
     instance = None
     args.moves = args.moves or ("grid" if args.instance is None else "rotate")
     if args.instance is not None:
@@ -332,6 +338,9 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
     else:
         floor = {"layout": _fleet_layout(args.layout)}
     ticks = tick_options(args, instance)
+    if args.guidance and ticks is not None:
+        raise UsageError("--guidance sets the lock-step fleet's planner: a run on ticks plans "
+                         "with the planner's defaults")  # fmt: skip
     if args.steps is None and ticks is not None:
         args.steps = default_ticks(instance, ticks)
     elif args.steps is None:
@@ -363,10 +372,24 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
             physics=args.physics, max_cycles=args.steps, moves=args.moves,
             observation=_observation_of(args.policy), **floor, **(bodies if args.physics else {}),
         )  # fmt: skip
-        policy = make_policy(args.policy, env, seed=args.seed)
+        policy = make_policy(args.policy, env, seed=args.seed, guidance=args.guidance)
     except (ValueError, TypeError, OSError) as error:
         raise UsageError(str(error).splitlines()[0]) from None
     return env, policy
+
+
+def _check_guidance(policy: str, guidance: dict[str, Any]) -> None:
+    """Refuse ``--guidance`` for a policy with no guidance, or fields its planner refuses.
+
+    Raises:
+        UsageError: one line, naming ``--guidance``.
+    """
+    if policy not in PLANNERS or policy == "pibt":
+        raise UsageError(f"--guidance sets a guided planner's fields; --policy {policy} has none")
+    try:
+        planner_policy(policy, **guidance)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"--guidance: {error}") from None
 
 
 def _fleet_layout(name: str) -> str | tuple[str, ...]:
@@ -444,6 +467,8 @@ def _run(
             raise UsageError(str(error).splitlines()[0]) from None
         finally:
             gc.unfreeze()
+    if args.guidance:  # recorded in summary.json beside the planner's name
+        result = dataclasses.replace(result, guidance=args.guidance)
     return result, frames, record
 
 

@@ -16,6 +16,7 @@ delays (:mod:`warehouse_phys.apps.simulate.on_ticks`); both stand on this module
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -89,6 +90,9 @@ class Simulation:
     #: (:meth:`~warehouse_phys.physics.safety.SafetyRecord.summary`: closest approach,
     #: contacts deeper than the collision slop, ...), top-level fields of ``summary.json``.
     safety: dict[str, Any] | None = None
+    #: A guided planner's fields set on the command line (``--guidance``; None: its
+    #: defaults), recorded in ``summary.json``.
+    guidance: dict[str, Any] | None = None
 
     @property
     def steps(self) -> int:
@@ -207,6 +211,7 @@ class Simulation:
             "cpu_seconds": self.cpu_seconds,
             "cpu_seconds_of": self.timing(),
             "moves": self.moves,
+            **({"guidance": self.guidance} if self.guidance else {}),
             **self._one_shot_json(),
             **self._instance_json(),
             **(self.safety or {}),
@@ -255,8 +260,12 @@ class Simulation:
         }
 
 
-def make_policy(name: str, env: WarehouseFleetEnv, *, seed: int) -> FleetPolicy:
-    """The fleet policy called ``name``: one of :data:`POLICIES` or a fleet table's path.
+def make_policy(
+    name: str, env: WarehouseFleetEnv, *, seed: int, guidance: Mapping[str, Any] | None = None
+) -> FleetPolicy:
+    """The fleet policy called ``name``: one of :data:`POLICIES` or a fleet table's path;
+    ``guidance`` sets a guided planner's fields
+    (:func:`~warehouse_phys.rl.fleet_planners.planner_policy`).
 
     Raises:
         ValueError: for an unknown name, a planner of turning robots for robots that do
@@ -265,7 +274,7 @@ def make_policy(name: str, env: WarehouseFleetEnv, *, seed: int) -> FleetPolicy:
     if name in TURNING_ONLY and getattr(env, "moves", "grid") != "rotate":
         raise ValueError(f"policy {name!r} plans turning robots only: give --moves rotate")
     if name in PLANNERS:
-        return planner_policy(name, seed=seed)
+        return planner_policy(name, seed=seed, **(guidance or {}))
     if name == "shortest":
         return shortest_path_policy
     if name == "random":
