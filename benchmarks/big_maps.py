@@ -73,7 +73,7 @@ MAPS = (
 )
 #: ``--quick``: a smoke run (few robots and steps, a 256-cell-square generated floor,
 #: distance maps for few goals so that the rest are guided).
-QUICK = {"robots": 300, "steps": 3, "side": 256, "distance_mib": 4}
+QUICK = {"robots": 100, "steps": 3, "side": 256, "distance_mib": 4}
 #: The reference's first step is timed on a sample of goals when all would take longer
 #: than this [s].
 REFERENCE_BUDGET_S = 60.0

@@ -146,7 +146,7 @@ def test_the_big_maps_benchmark_reports_ours_beside_the_reference(tmp_path):
     assert generated["guided_goals"] > 0
     assert generated["full_maps"] * 2 * (generated["free_cells"] + 1) <= 4 * 2**20
     for run in runs:
-        assert run["robots"] == 300
+        assert run["robots"] == 100  # QUICK: beyond the 4 MiB of distance maps
         assert run["first_step_ratio"] > 0
         assert run["later_step_ratio"] > 0
         assert run["peak_rss_mib"] > 0
