@@ -87,7 +87,7 @@ def test_guidance_reaches_the_planner_and_is_recorded(tmp_path, capsys):
          "argument --guidance: expected a JSON object of planner fields"),
         (["--policy", "guided", "--guidance", "{"], "expected a JSON object of planner fields"),
         (["--policy", "guided", "--p-delay", "0.01", "--guidance", '{"reroute": 4}'],
-         "--guidance sets the lock-step fleet's planner: a run on ticks plans with"),
+         "--guidance sets the planner of a lock-step run or of one by the start kit"),
     ],
 )  # fmt: skip
 def test_guidance_that_cannot_apply_ends_in_one_line(argv, message, capsys, tmp_path):

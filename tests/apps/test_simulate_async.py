@@ -121,6 +121,22 @@ def test_the_station_cap_runs_by_the_start_kits_rules(tmp_path, capsys):
     assert runs["rematch"] != runs["rematch-capped"]
 
 
+def test_guidance_sets_the_entrys_planner_by_the_start_kits_rules(tmp_path, capsys):
+    """--guidance on a run by the kit's rules: the entry's planner takes the fields (its
+    robots go otherwise) and summary.json records them."""
+    from tests.lorr.tiny_kit_instance import station_instance
+
+    path = write_instance(station_instance(), tmp_path / "stations.json")
+    guidance = {"vertex_weight": 2.0, "iterations": 0}
+    argv = ["--instance", str(path), "--steps", "120", "--policy", "guided-ops-repair"]
+    plain, plain_output = run(tmp_path, "plain", *argv)
+    summary, output = run(tmp_path, "guided", *argv, "--guidance", json.dumps(guidance))
+    assert "0 square collisions by the kit's rule" in capsys.readouterr().out
+    assert (summary["rules"], summary["guidance"]) == ("start kit", guidance)
+    assert "guidance" not in plain
+    assert output["actualPaths"] != plain_output["actualPaths"]
+
+
 def test_ticks_on_an_earlier_instance_write_empty_delay_intervals_and_replay(tmp_path, capsys):
     """--ticks-per-move on a 2024 instance: the same output, plus agentMaxCounter and one
     empty list of delays a robot; the paths replay tick by tick without a conflict."""

@@ -57,6 +57,33 @@ def test_an_entry_the_environment_names_wrongly_is_one_line_with_status_2(
     assert not (tmp_path / "o").exists()
 
 
+def test_guidance_the_entry_cannot_take_is_refused_before_the_kit_runs(
+    tmp_path, capsys, monkeypatch
+):
+    from tests.lorr.tiny_kit_instance import station_instance
+    from warehouse_phys.lorr.instances import write_instance
+
+    path = write_instance(station_instance(), tmp_path / "stations.json")
+    argv = ["run", str(path), "--kit", str(tmp_path / "no-kit"), "--ticks", "5", "--out",
+            str(tmp_path / "out")]  # fmt: skip
+    for extra, message in (
+        (["--guidance", '{"nope": 1}'], "--guidance: planner 'guided-ops-repair' has no field "
+                                        "'nope'; its fields: vertex_weight"),
+        (["--planner", "pibt", "--guidance", '{"reroute": 4}'],
+         "--guidance: plain PIBT takes no guidance, got ['reroute']"),
+        (["--guidance", '{"reroute": -1}'], "--guidance: reroute must be >= 0, got -1"),
+        (["--guidance", "[]"], "argument --guidance: expected a JSON object of planner fields"),
+    ):  # fmt: skip
+        assert startkit.main([*argv, *extra, "--only", "simulate"]) == 2
+        err = capsys.readouterr().err
+        assert message in err, err
+        assert err.count("\n") == 1
+    monkeypatch.setenv("WAREHOUSE_PHYS_GUIDANCE", "{")
+    assert startkit.main([*argv, "--only", "simulate"]) == 2
+    assert "WAREHOUSE_PHYS_GUIDANCE={: not a JSON object" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_python_dash_m_runs_the_command():
     done = subprocess.run([sys.executable, "-m", "warehouse_phys.startkit", "--help"], cwd=ROOT,
                           capture_output=True, text=True)  # fmt: skip

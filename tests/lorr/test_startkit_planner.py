@@ -178,3 +178,23 @@ def test_a_planner_short_of_time_twice_in_a_row_drops_its_operations_and_repair(
     actions = short.plan(instance.starts, facing, goals)  # one action a step from now on
     assert actions.shape == (8, 3)
     assert np.isin(actions, [0, 1, 2, 3]).all()
+
+
+def test_guidance_sets_the_entrys_fields_over_its_own():
+    from warehouse_phys.lorr.startkit.planner import ENTRY_GUIDANCE, ENTRY_REPAIR, entry_planner
+    from warehouse_phys.world.grid import WarehouseGrid
+
+    grid = WarehouseGrid(3, 4)
+    planner = entry_planner("guided-ops-repair", grid, guidance={"reroute": 4, "iterations": 9})
+    assert planner.guidance.config.reroute == 4
+    assert planner.guidance.config.vertex_weight == ENTRY_GUIDANCE.vertex_weight  # the entry's own
+    assert planner.repair.iterations == 9
+    assert planner.repair.neighbourhood == ENTRY_REPAIR["neighbourhood"]
+    assert entry_planner("guided", grid, guidance={"window": 3}).guidance.config.window == 3
+    assert entry_planner("guided", grid).guidance.config == ENTRY_GUIDANCE
+    with pytest.raises(TypeError, match="planner 'guided' has no field 'iterations'"):
+        entry_planner("guided", grid, guidance={"iterations": 9})
+    with pytest.raises(ValueError, match="plain PIBT takes no guidance"):
+        entry_planner("pibt", grid, guidance={"window": 3})
+    planner = EntryPlanner(grid, steps=2, planner="guided-repair", guidance={"iterations": 5})
+    assert planner.planner.repair.iterations == 5

@@ -234,3 +234,28 @@ def test_the_command_runs_the_entry_and_simulate_with_the_same_scheduler(tmp_pat
     late = np.flatnonzero((kit.planned == TIMEOUT).all(axis=0))
     same = kit.actual.shape[1] if not len(late) else int(late[0])
     assert (ours.actual[:, :same] == kit.actual[:, :same]).all()
+
+
+def test_the_entrys_guidance_reaches_the_kits_planner_as_simulates(tmp_path, capsys):
+    built_kit()
+    instance = station_instance()
+    path = write_instance(instance, tmp_path / "instance" / "stations.json")
+    out = tmp_path / "out"
+    guidance = {"vertex_weight": 2.0, "iterations": 0}  # heavy traffic prices, no repair
+    argv = ["run", str(path), "--kit", str(KIT), "--ticks", "120", "--out", str(out),
+            "--guidance", json.dumps(guidance)]  # fmt: skip
+    for only in ("ours", "simulate"):  # simulate replays the delays of ours
+        assert startkit.main([*argv, "--only", only]) == 0, capsys.readouterr().out
+    assert json.loads((out / "summary.json").read_text())["guidance"] == guidance
+    assert json.loads((out / "simulate" / "summary.json").read_text())["guidance"] == guidance
+    kit = read_output(out / "ours.json")
+    ours = read_output(out / "simulate" / "lorr-output.json")
+    late = np.flatnonzero((kit.planned == TIMEOUT).all(axis=0))
+    same = kit.actual.shape[1] if not len(late) else int(late[0])
+    assert (ours.actual[:, :same] == kit.actual[:, :same]).all()
+    # The entry's own fields plan otherwise on the same delays: the kit took the guidance.
+    recorded = kit.actual.shape[1]
+    plain = KitSystem(instance, delays=DelayReplay(kit.data["delayIntervals"], recorded))
+    plain.run(recorded)
+    paths = np.stack([decode_path(p, 100)[0] for p in plain.output().actual_paths])
+    assert (paths[:, :same] != kit.actual[:, :same]).any()

@@ -26,12 +26,13 @@ with the delays of the first (``DIR/simulate/``), and writes ``DIR/summary.json`
 prints one table: tasks finished, the motions the kit's action model refused, planner and
 schedule errors, the checks that found the planner late and the ticks every robot waited
 for a late executor, wall and CPU time (each run's own process). ``--only`` runs one of
-the three. ``--planner`` and ``--scheduler`` set the entry's (by default what
-``WAREHOUSE_PHYS_PLANNER`` and ``WAREHOUSE_PHYS_SCHEDULER`` say, else ``guided-ops-repair``
-and ``assignment``), and ``simulate`` runs the same ones (``assignment`` is its
-``rematch``, ``assignment-capped`` its ``rematch-capped``). Exit status: 0; 2 for a bad
-command line or instance; 1 when the kit cannot be built or run (one line saying what is
-missing, or where its log is).
+the three. ``--planner``, ``--scheduler`` and ``--guidance`` (the planner's fields, a JSON
+object) set the entry's (by default what ``WAREHOUSE_PHYS_PLANNER``,
+``WAREHOUSE_PHYS_SCHEDULER`` and ``WAREHOUSE_PHYS_GUIDANCE`` say, else
+``guided-ops-repair``, ``assignment`` and ``{}``), and ``simulate`` runs the same ones
+(``assignment`` is its ``rematch``, ``assignment-capped`` its ``rematch-capped``). Exit
+status: 0; 2 for a bad command line or instance; 1 when the kit cannot be built or run
+(one line saying what is missing, or where its log is).
 """
 
 from __future__ import annotations
@@ -41,16 +42,19 @@ import json
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
-from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int
+from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int, guidance_fields
 from warehouse_phys.files.atomic import atomic_write_text
 from warehouse_phys.lorr.instances import read_instance
-from warehouse_phys.lorr.startkit.adapters import setting
+from warehouse_phys.lorr.startkit.adapters import entry_guidance, setting
 from warehouse_phys.lorr.startkit.build import KitBuildError, NotAKitError, build_kit
 from warehouse_phys.lorr.startkit.install import InstallError, install
+from warehouse_phys.lorr.startkit.planner import entry_planner
 from warehouse_phys.lorr.startkit.runs import RUNS, comparison_table, run_kit, run_simulate
 from warehouse_phys.lorr.startkit.scheduler import ENTRY_SCHEDULERS, FLEET_SCHEDULERS
 from warehouse_phys.planners.named import PLANNERS
+from warehouse_phys.world.grid import WarehouseGrid
 
 PROG = "python -m warehouse_phys.startkit"
 
@@ -90,15 +94,19 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the entry's scheduler, and simulate's (default: "
                      "WAREHOUSE_PHYS_SCHEDULER, else assignment; assignment-capped sends at "
                      "most 8 robots to one station)")  # fmt: skip
+    run.add_argument("--guidance", type=guidance_fields, metavar="JSON",
+                     help="the entry's planner's fields, and simulate's, a JSON object such as "
+                     "'{\"reroute\": 32}' (default: WAREHOUSE_PHYS_GUIDANCE, else {})")  # fmt: skip
     return parser
 
 
-def _entry(args: argparse.Namespace) -> tuple[str, str]:
-    """The entry's planner and scheduler: the command line's, else the environment's.
+def _entry(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
+    """The entry's planner, scheduler and planner's fields: the command line's, else the
+    environment's.
 
     Raises:
         UsageError: for a planner or scheduler the environment names that the entry has
-            not.
+            not, or fields its planner refuses.
     """
     planner = args.planner or setting("WAREHOUSE_PHYS_PLANNER")
     scheduler = args.scheduler or setting("WAREHOUSE_PHYS_SCHEDULER")
@@ -108,7 +116,15 @@ def _entry(args: argparse.Namespace) -> tuple[str, str]:
     if scheduler not in ENTRY_SCHEDULERS:
         raise UsageError(f"WAREHOUSE_PHYS_SCHEDULER={scheduler}: not an entry's scheduler; "
                          f"known: {', '.join(ENTRY_SCHEDULERS)}")  # fmt: skip
-    return planner, scheduler
+    try:
+        guidance = entry_guidance() if args.guidance is None else args.guidance
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    try:  # on a small floor: the fields alone, before the kit runs
+        entry_planner(planner, WarehouseGrid(2, 2), guidance=guidance)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"--guidance: {error}") from None
+    return planner, scheduler, guidance
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -152,7 +168,7 @@ def _run(args: argparse.Namespace) -> int:
         raise UsageError(str(error).splitlines()[0]) from None
     if not args.kit.is_dir() and args.only != "simulate":
         raise UsageError(f"--kit {args.kit}: not a folder (give the start kit's source)")
-    planner, scheduler = _entry(args)
+    planner, scheduler, guidance = _entry(args)
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     wanted = [args.only] if args.only else list(RUNS)
@@ -161,7 +177,8 @@ def _run(args: argparse.Namespace) -> int:
     if {"ours", "default"} & set(wanted):
         build = build_kit(args.kit, jobs=args.jobs, quiet=False)
     size = 1.0 if instance.agent_size is None else instance.agent_size
-    entry = {"WAREHOUSE_PHYS_PLANNER": planner, "WAREHOUSE_PHYS_SCHEDULER": scheduler}
+    entry = {"WAREHOUSE_PHYS_PLANNER": planner, "WAREHOUSE_PHYS_SCHEDULER": scheduler,
+             "WAREHOUSE_PHYS_GUIDANCE": json.dumps(guidance)}  # fmt: skip
     for name in ("ours", "default"):
         if name in wanted:
             print(f"running the kit with {'the entry' if name == 'ours' else 'its default entry'}"
@@ -174,11 +191,12 @@ def _run(args: argparse.Namespace) -> int:
         print("running simulate by the kit's rules...", file=sys.stderr, flush=True)
         results.append(run_simulate(args.instance, out / "simulate", args.ticks,
                                     delays_from=source, planner=planner,
-                                    scheduler=FLEET_SCHEDULERS[scheduler]))  # fmt: skip
+                                    scheduler=FLEET_SCHEDULERS[scheduler],
+                                    guidance=guidance))  # fmt: skip
     summary = {
         "instance": str(args.instance), "robots": instance.team_size, "ticks": args.ticks,
         "kit": str(args.kit), "build": None if build is None else str(build.folder),
-        "planner": planner, "scheduler": scheduler,
+        "planner": planner, "scheduler": scheduler, "guidance": guidance,
         "load_average": {"before": list(load_before), "after": list(os.getloadavg())},
         "cpus": os.cpu_count(), "runs": [result.to_json() for result in results],
     }  # fmt: skip

@@ -21,6 +21,7 @@ pygame.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 from warehouse_phys.planners.distances import DistanceMaps
@@ -77,6 +78,28 @@ class PlannerSetup(NamedTuple):
     repair: dict[str, Any] | None
 
 
+def split_guidance(name: str, guidance: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``guidance`` for the guided planner ``name`` split in two: the fields of its
+    :class:`~warehouse_phys.planners.guidance_config.GuidanceConfig`, and (a repairing
+    planner's, :data:`PLANNER_REPAIRS`) its repair's, as
+    :class:`~warehouse_phys.planners.repair.WindowRepair`'s arguments
+    (:data:`REPAIR_FIELDS`). The values are checked where they are used.
+
+    Raises:
+        TypeError: naming a field that neither the guidance nor the repair has.
+    """
+    known = [field.name for field in dataclasses.fields(GuidanceConfig)]
+    known += list(REPAIR_FIELDS) if name in PLANNER_REPAIRS else []
+    unknown = sorted(set(guidance) - set(known))
+    if unknown:
+        raise TypeError(f"planner {name!r} has no field {unknown[0]!r}; its fields: "
+                        f"{', '.join(known)}")  # fmt: skip
+    fields = {key: value for key, value in guidance.items() if key not in REPAIR_FIELDS}
+    repair = {REPAIR_FIELDS[key]: value for key, value in guidance.items()
+              if key in REPAIR_FIELDS}  # fmt: skip
+    return fields, repair
+
+
 def planner_setup(name: str, **guidance: Any) -> PlannerSetup:
     """The setup of the planner ``name`` (one of :data:`PLANNERS`); ``guidance`` overrides
     fields of a guided planner's :class:`~warehouse_phys.planners.guidance.GuidanceConfig`
@@ -94,22 +117,14 @@ def planner_setup(name: str, **guidance: Any) -> PlannerSetup:
         return PlannerSetup(None, 0, None)
     if name not in PLANNERS:
         raise ValueError(f"unknown planner {name!r}; known: {', '.join(PLANNERS)}")
-    repair = dict(REPAIR) if name in PLANNER_REPAIRS else None
-    known = [field.name for field in dataclasses.fields(GuidanceConfig)]
-    known += list(REPAIR_FIELDS) if repair is not None else []
-    unknown = sorted(set(guidance) - set(known))
-    if unknown:
-        raise TypeError(f"planner {name!r} has no field {unknown[0]!r}; its fields: "
-                        f"{', '.join(known)}")  # fmt: skip
-    if repair is not None:
-        repair |= {REPAIR_FIELDS[key]: guidance.pop(key) for key in list(guidance)
-                   if key in REPAIR_FIELDS}  # fmt: skip
+    fields, repair_fields = split_guidance(name, guidance)
+    repair = dict(REPAIR) | repair_fields if name in PLANNER_REPAIRS else None
     base = PLANNER_REPAIRS.get(name, name)
     config = PLANNER_GUIDANCE.get(base) or PLANNER_OPERATIONS[base]
     if repair is not None:
         config = dataclasses.replace(config, **REPAIR_GUIDANCE)
-    if guidance:
-        config = dataclasses.replace(config, **guidance)
+    if fields:
+        config = dataclasses.replace(config, **fields)
     depth = OPERATION_DEPTH if base in PLANNER_OPERATIONS else 0
     return PlannerSetup(config, depth, repair)
 

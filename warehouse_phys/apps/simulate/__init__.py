@@ -338,9 +338,6 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
     else:
         floor = {"layout": _fleet_layout(args.layout)}
     ticks = tick_options(args, instance)
-    if args.guidance and ticks is not None:
-        raise UsageError("--guidance sets the lock-step fleet's planner: a run on ticks plans "
-                         "with the planner's defaults")  # fmt: skip
     if args.steps is None and ticks is not None:
         args.steps = default_ticks(instance, ticks)
     elif args.steps is None:
@@ -356,7 +353,12 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
             seed=args.seed,
             delays_from=args.delays_from,
             ticks=args.steps,
+            guidance=args.guidance,
         ), None
+    if args.guidance and ticks is not None:
+        raise UsageError("--guidance sets the planner of a lock-step run or of one by the "
+                         "start kit's rules (an instance, --moves rotate), not the fleet's "
+                         "on ticks")  # fmt: skip
     if args.delays_from is not None:
         raise UsageError(
             "--delays-from replays a start-kit run's delays by the kit's rules: an "

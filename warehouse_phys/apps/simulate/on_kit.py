@@ -29,7 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -71,11 +71,11 @@ def kit_rules(instance: LorrInstance | None, on_ticks: bool, moves: str, physics
 
 def kit_system(
     instance: LorrInstance, options: Any, *, policy: str, scheduler: str | None, seed: int,
-    delays_from: Path | None, ticks: int,
+    delays_from: Path | None, ticks: int, guidance: Mapping[str, Any] | None = None,
 ) -> KitSystem:  # fmt: skip
     """The kit's loop on ``instance`` with the ticks and delays of ``options`` (a
     :class:`~warehouse_phys.apps.simulate.on_ticks.TickOptions`), or the delays of the kit
-    run ``delays_from``.
+    run ``delays_from``; ``guidance`` sets fields of the entry's planner.
 
     Raises:
         UsageError: one line, for a policy the entry has no planner of, a 2023 instance,
@@ -100,6 +100,7 @@ def kit_system(
         return KitSystem(
             instance,
             planner=policy,
+            guidance=guidance,
             scheduler=_ENTRY_SCHEDULER[scheduler],
             ticks_per_move=options.ticks_per_move,
             delays=delays,

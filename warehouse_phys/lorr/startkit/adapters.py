@@ -14,7 +14,9 @@ those names. ``MAPF`` is the kit's own module; it is imported only here, inside 
 What the kit does not tell its components, they take from the environment: the robots'
 side, ``agentSize`` (``WAREHOUSE_PHYS_AGENT_SIZE``, default 1, the kit's default and
 every 2026 example's; a larger value than the instance's is safe, only slower), the
-planner (``WAREHOUSE_PHYS_PLANNER``, ``guided-ops-repair``) and the scheduler
+planner (``WAREHOUSE_PHYS_PLANNER``, ``guided-ops-repair``) and its fields
+(``WAREHOUSE_PHYS_GUIDANCE``, a JSON object such as ``{"reroute": 32}``; ``{}``, the
+entry's own: :func:`~warehouse_phys.lorr.startkit.planner.entry_planner`), and the scheduler
 (``WAREHOUSE_PHYS_SCHEDULER``, ``assignment``; ``assignment-capped``, ``makespan``,
 ``nearest``). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
 file, each call appends a line ``<call> <wall seconds> <CPU seconds of its thread>`` to
@@ -50,6 +52,7 @@ the executor's state stays the kit's.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import threading
@@ -75,6 +78,7 @@ from warehouse_phys.world.traffic import neighbour_table
 SETTINGS = {
     "WAREHOUSE_PHYS_AGENT_SIZE": "1",
     "WAREHOUSE_PHYS_PLANNER": "guided-ops-repair",
+    "WAREHOUSE_PHYS_GUIDANCE": "{}",
     "WAREHOUSE_PHYS_SCHEDULER": "assignment",
 }
 _GO, _STOP = 0, 1  # MAPF.ExecutionCommand
@@ -133,6 +137,23 @@ def timed(call: str) -> Callable[[F], F]:
 def setting(name: str) -> str:
     """The component setting ``name`` (a key of :data:`SETTINGS`) from the environment."""
     return os.environ.get(name, SETTINGS[name])
+
+
+def entry_guidance() -> dict[str, Any]:
+    """The planner's fields that ``WAREHOUSE_PHYS_GUIDANCE`` sets (a JSON object).
+
+    Raises:
+        ValueError: naming the variable, for text that is not a JSON object.
+    """
+    text = setting("WAREHOUSE_PHYS_GUIDANCE")
+    try:
+        fields = json.loads(text)
+    except ValueError:
+        fields = None
+    if not isinstance(fields, dict):
+        raise ValueError(f"WAREHOUSE_PHYS_GUIDANCE={text}: not a JSON object of the planner's "
+                         "fields, such as {\"reroute\": 32}")  # fmt: skip
+    return fields
 
 
 def kit_grid(env: Any) -> WarehouseGrid:
@@ -267,14 +288,15 @@ class PlannerAdapter:
 
     def initialize(self, preprocess_time_limit: int) -> None:
         grid = kit_grid(self.env)
-        name = setting("WAREHOUSE_PHYS_PLANNER")
-        self.core = EntryPlanner(grid, steps=kit_steps(self.env), planner=name)
+        name, guidance = setting("WAREHOUSE_PHYS_PLANNER"), entry_guidance()
+        self.core = EntryPlanner(grid, steps=kit_steps(self.env), planner=name,
+                                 guidance=guidance)  # fmt: skip
         self._ahead = neighbour_table(grid)[:, HEADING_MOVES]
         self._calls = 0
         # Load the compiled searches now (preprocessing has 30 s), not in the first plan (1 s).
         free = np.flatnonzero(grid.free_mask.reshape(-1))[:2]
-        EntryPlanner(grid, steps=1, planner=name).plan(free, np.zeros(len(free), np.int64),
-                                                        free[::-1])  # fmt: skip
+        warm = EntryPlanner(grid, steps=1, planner=name, guidance=guidance)
+        warm.plan(free, np.zeros(len(free), np.int64), free[::-1])
 
     @timed("plan")
     def plan(self, time_limit: int) -> list[list[int]]:

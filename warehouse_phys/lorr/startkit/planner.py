@@ -29,11 +29,13 @@ pymunk nor pygame.
 
 from __future__ import annotations
 
+import dataclasses
 import gc
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
+from typing import Any
 
 import numpy as np
 
@@ -42,7 +44,7 @@ from warehouse_phys.execution.ticks import check_whole
 from warehouse_phys.execution.windows import REPLANS, rotation_heads, without_rotations
 from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.guidance_config import GuidanceConfig
-from warehouse_phys.planners.named import named_planner
+from warehouse_phys.planners.named import named_planner, planner_setup, split_guidance
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.world.grid import WarehouseGrid
@@ -88,24 +90,34 @@ STUCK_PLANS = 5
 DETOUR_PLANS, DETOUR_RADIUS = 2, 4
 
 
-def entry_planner(name: str, grid: WarehouseGrid, seed: int = 0) -> GuidedPIBT | PIBT:
+def entry_planner(
+    name: str, grid: WarehouseGrid, seed: int = 0, guidance: Mapping[str, Any] | None = None
+) -> GuidedPIBT | PIBT:
     """The planner called ``name`` for turning robots on ``grid``, seeded: one of
     :data:`ENTRY_PLANNERS`, set for the entry (the module), or any other of
     :data:`~warehouse_phys.planners.named.PLANNERS` as
-    :func:`~warehouse_phys.planners.named.named_planner` makes it.
+    :func:`~warehouse_phys.planners.named.named_planner` makes it. ``guidance`` sets
+    fields of a guided planner's guidance and repair over the entry's own
+    (:func:`~warehouse_phys.planners.named.split_guidance`: ``{"reroute": 32}``, say).
 
     Raises:
-        ValueError: for another name.
+        ValueError: for another name, guidance given to plain PIBT, or a field's value
+            the guidance or the repair refuses.
+        TypeError: naming a field the planner lacks.
     """
-    if name == "guided-ops-repair":
-        return GuidedPIBT(grid, seed=seed, moves="rotate", config=ENTRY_GUIDANCE,
+    guidance = dict(guidance or {})
+    if name in ("guided-ops-repair", "guided"):
+        fields, repair = split_guidance(name, guidance)
+        config = dataclasses.replace(ENTRY_GUIDANCE, **fields)
+        if name == "guided":
+            return GuidedPIBT(grid, seed=seed, moves="rotate", config=config)
+        return GuidedPIBT(grid, seed=seed, moves="rotate", config=config,
                           operations=ENTRY_OPERATIONS,
-                          repair=WindowRepair(**ENTRY_REPAIR, seed=seed))  # fmt: skip
-    if name == "guided":
-        return GuidedPIBT(grid, seed=seed, moves="rotate", config=ENTRY_GUIDANCE)
+                          repair=WindowRepair(**(ENTRY_REPAIR | repair), seed=seed))  # fmt: skip
     if name == "pibt":
+        planner_setup(name, **guidance)  # refuses any guidance
         return PIBT(grid, seed=seed, moves="rotate")
-    return named_planner(name, grid, moves="rotate", seed=seed)
+    return named_planner(name, grid, moves="rotate", seed=seed, **guidance)
 
 
 class EntryPlanner:
@@ -117,6 +129,8 @@ class EntryPlanner:
         planner: One of :data:`ENTRY_PLANNERS`.
         seed: The planner's seed: the same seed and inputs give the same windows (the
             guided planner's time bound, if any, aside).
+        guidance: Fields of the guided planner's guidance and repair
+            (:func:`entry_planner`; None: the entry's own).
 
     Raises:
         ValueError, TypeError: naming the argument.
@@ -129,11 +143,12 @@ class EntryPlanner:
         steps: int,
         planner: str = ENTRY_PLANNERS[0],
         seed: int = 0,
+        guidance: Mapping[str, Any] | None = None,
     ) -> None:
         self.grid = grid
         self.steps = check_whole("steps", steps, 1, MAX_STEPS)
         self.name = planner
-        self.planner = entry_planner(planner, grid, seed)
+        self.planner = entry_planner(planner, grid, seed, guidance)
         table = neighbour_table(grid)
         #: ``(cells, 4)`` the cell a forward move along each heading enters.
         self.ahead = table[:, HEADING_MOVES]

@@ -22,6 +22,7 @@ import shlex
 import subprocess
 import sys
 import time
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -171,11 +172,13 @@ def run_simulate(
     delays_from: str | os.PathLike[str] | None,
     planner: str = ENTRY_PLANNERS[0],
     scheduler: str | None = None,
+    guidance: Mapping[str, Any] | None = None,
     timeout: float | None = None,
 ) -> RunResult:
     """Run ``python -m warehouse_phys.simulate`` on ``instance`` for ``ticks`` ticks into
     the run folder ``folder``, replaying the delays of the kit run ``delays_from`` (its
-    own draws when ``None``); ``scheduler`` ``None``: the entry's own."""
+    own draws when ``None``); ``scheduler`` ``None``: the entry's own; ``guidance``: the
+    planner's fields (``--guidance``)."""
     folder = Path(folder).resolve()
     command = [sys.executable, "-m", "warehouse_phys.simulate", "--instance",
                str(Path(instance).resolve()), "--steps", str(int(ticks)), "--policy", planner,
@@ -183,6 +186,8 @@ def run_simulate(
                "--no-compare", *(("--scheduler", scheduler) if scheduler else ())]  # fmt: skip
     if delays_from is not None:
         command += ["--delays-from", str(Path(delays_from).resolve())]
+    if guidance:
+        command += ["--guidance", json.dumps(dict(guidance))]
     folder.parent.mkdir(parents=True, exist_ok=True)
     log = folder.parent / f"{folder.name}.log"
     result = RunResult("simulate", int(ticks), log=str(log), command=shlex.join(command))

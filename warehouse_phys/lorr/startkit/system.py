@@ -39,7 +39,7 @@ gymnasium, pymunk nor pygame.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -95,6 +95,8 @@ class KitSystem:
         instance: A 2024 or later instance (a scheduler hands its tasks out).
         planner: The entry's planner by name
             (:func:`~warehouse_phys.lorr.startkit.planner.entry_planner`).
+        guidance: Fields of its guidance and repair (``WAREHOUSE_PHYS_GUIDANCE`` in the
+            kit; None: the entry's own).
         scheduler: The entry's scheduler (a name of
             :data:`~warehouse_phys.lorr.startkit.scheduler.ENTRY_SCHEDULERS`).
         ticks_per_move: Ticks a forward move or a quarter turn takes (default: the
@@ -118,6 +120,7 @@ class KitSystem:
         instance: LorrInstance,
         *,
         planner: str = ENTRY_PLANNERS[0],
+        guidance: Mapping[str, Any] | None = None,
         scheduler: str = "assignment",
         ticks_per_move: int | None = None,
         delays: DelayConfig | DelayReplay | None = None,
@@ -138,9 +141,9 @@ class KitSystem:
         self.round_ticks = -(-comm_ms // tick_ms)
         steps = plan_steps(comm_ms, tick_ms, self.ticks_per_move)
         self.tasks = KitTasks(instance, record=True)
-        self._parts = (scheduler, planner, seed, steps)
+        self._parts = (scheduler, planner, seed, steps, guidance)
         EntryScheduler(grid.cols, scheduler, grid)  # checked here: reset() builds the parts
-        EntryPlanner(grid, steps=steps, planner=planner, seed=seed)
+        EntryPlanner(grid, steps=steps, planner=planner, seed=seed, guidance=guidance)
         self._executor_args = (grid, instance.starts, self.ticks_per_move)
         #: Actions a queue keeps: a robot on time holds at most ``steps`` (one round's
         #: moves and one in progress); one more, and only a robot behind is cut.
@@ -168,9 +171,10 @@ class KitSystem:
         """Tick 0: robots on their starts facing east, the first tasks open, the entry's
         first schedule and plan computed."""
         grid, starts, counter = self._executor_args
-        scheduler, planner, seed, steps = self._parts
+        scheduler, planner, seed, steps, guidance = self._parts
         self.scheduler = EntryScheduler(grid.cols, scheduler, grid)
-        self.planner = EntryPlanner(grid, steps=steps, planner=planner, seed=seed)
+        self.planner = EntryPlanner(grid, steps=steps, planner=planner, seed=seed,
+                                    guidance=guidance)  # fmt: skip
         self.executor = EntryExecutor(grid, starts, counter, agent_size=self.agent_size,
                                       horizon=self._horizon)  # fmt: skip
         config = self.delay_config
