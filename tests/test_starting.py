@@ -10,7 +10,11 @@ import time
 import pytest
 
 from tests.conftest import ROOT
-from warehouse_phys._starting import command_interrupts, started_command
+from warehouse_phys._starting import (
+    command_interrupts,
+    pass_on_ignored_interrupts,
+    started_command,
+)
 
 #: After Python's own start (about 0.1 s, beyond the package's reach), within the imports.
 DELAYS = [0.4, 0.8]
@@ -55,3 +59,49 @@ def test_a_program_that_imports_the_package_gets_its_interrupt_back(monkeypatch)
         raise KeyboardInterrupt
     monkeypatch.setattr(sys, "orig_argv", ["python", "-m", "warehouse_phys.apps.simulate"])
     assert started_command() == "python -m warehouse_phys.simulate"
+
+
+def test_an_interrupt_python_ignores_in_its_own_callback_still_ends_the_command(
+    monkeypatch, capsys
+):
+    # Python ignores an exception raised in a callback it runs (a finaliser here; the
+    # import system's module-lock callbacks in a command's start), printing "Exception
+    # ignored" and a traceback. A command passes the interrupt on to its main thread.
+    monkeypatch.setattr(sys, "orig_argv", ["python", "-m", "warehouse_phys.simulate"])
+    others = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda unraisable: others.append(unraisable))
+    pass_on_ignored_interrupts()
+    pass_on_ignored_interrupts()  # once: not a hook round a hook
+    # Python's own Ctrl-C handler, as a command started from a terminal has it.
+    handler = signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    class Interrupted:
+        def __del__(self):
+            raise KeyboardInterrupt
+
+    def start():
+        with command_interrupts(running=True):
+            Interrupted()  # gone at once: its interrupt goes to sys.unraisablehook
+            for _ in range(10_000):  # the interrupt lands within a few switches
+                time.sleep(0)
+
+    try:
+        with pytest.raises(SystemExit) as stopped:
+            start()
+    finally:
+        signal.signal(signal.SIGINT, handler)
+    assert stopped.value.code == 130
+    err = capsys.readouterr().err
+    assert "Exception ignored" not in err, err
+    assert err == (
+        "python -m warehouse_phys.simulate: interrupted while starting; nothing was written\n"
+    )
+    assert others == []
+    # Any other exception Python ignores still goes to the hook there was.
+
+    class Broken:
+        def __del__(self):
+            raise ZeroDivisionError
+
+    Broken()
+    assert [type(unraisable.exc_value) for unraisable in others] == [ZeroDivisionError]

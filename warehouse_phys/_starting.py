@@ -8,10 +8,16 @@ while starting; nothing was written`` and status 130, as an interrupt later does
 that imports the package for itself (a script, a notebook, a test run) gets its
 ``KeyboardInterrupt`` back, as ever. Imports nothing Python has not loaded at start (an
 interrupt in Python's own start, before the package's first line, is beyond its reach).
+
+Python ignores an interrupt that lands in a callback it runs itself (the import system's
+module-lock callbacks, say), printing ``Exception ignored in ...`` and a traceback, and
+goes on. A command's process passes such an interrupt on to its main thread instead
+(:func:`pass_on_ignored_interrupts`), where the command's own handling ends it in one line.
 """
 
 from __future__ import annotations
 
+import _thread
 import sys
 
 #: The exit status of a command stopped by Ctrl-C (128 + SIGINT), as the commands' own.
@@ -30,6 +36,30 @@ def started_command() -> str | None:
     return "python -m " + module.replace(".apps.", ".").removesuffix(".__main__")
 
 
+def pass_on_ignored_interrupts() -> None:
+    """From now on, a ``KeyboardInterrupt`` that Python would ignore (raised in a callback
+    it runs itself: ``sys.unraisablehook``) is raised again in the main thread, silently;
+    anything else goes to the hook there was. Once per process; a command's (the module)."""
+    if getattr(sys.unraisablehook, "_passes_on_interrupts", False):
+        return
+    previous = sys.unraisablehook
+
+    def hook(unraisable: object) -> None:
+        if isinstance(getattr(unraisable, "exc_value", None), KeyboardInterrupt):
+            # As if Ctrl-C came again, from another thread: raised in this hook, Python
+            # would ignore it once more. At interpreter shutdown no thread starts, and
+            # the command is ending anyway (not contextlib.suppress: see the module).
+            try:  # noqa: SIM105
+                _thread.start_new_thread(_thread.interrupt_main, ())
+            except RuntimeError:
+                pass
+            return
+        previous(unraisable)  # type: ignore[arg-type]
+
+    hook._passes_on_interrupts = True  # type: ignore[attr-defined]
+    sys.unraisablehook = hook
+
+
 class command_interrupts:  # a context manager, named as one
     """A ``with`` block in which a ``KeyboardInterrupt`` becomes the command's one line and
     exit status 130, when the block runs for a command: ``running`` (a command's own
@@ -40,7 +70,8 @@ class command_interrupts:  # a context manager, named as one
         self.running = running
 
     def __enter__(self) -> None:
-        return None
+        if started_command() is not None:
+            pass_on_ignored_interrupts()
 
     def __exit__(self, kind: type[BaseException] | None, *rest: object) -> bool:
         if kind is None or not issubclass(kind, KeyboardInterrupt):
