@@ -86,8 +86,8 @@ def test_guidance_reaches_the_planner_and_is_recorded(tmp_path, capsys):
         (["--policy", "guided", "--guidance", "[1]"],
          "argument --guidance: expected a JSON object of planner fields"),
         (["--policy", "guided", "--guidance", "{"], "expected a JSON object of planner fields"),
-        (["--policy", "guided", "--p-delay", "0.01", "--guidance", '{"reroute": 4}'],
-         "--guidance sets the planner of a lock-step run or of one by the start kit"),
+        (["--policy", "guided", "--p-delay", "0.01", "--guidance", '{"nope": 4}'],
+         "--guidance: planner 'guided' has no field 'nope'"),
     ],
 )  # fmt: skip
 def test_guidance_that_cannot_apply_ends_in_one_line(argv, message, capsys, tmp_path):

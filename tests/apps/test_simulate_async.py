@@ -186,6 +186,21 @@ def test_turning_robots_run_on_ticks_on_a_floor_and_the_guided_planner_too(tmp_p
         assert summary["deliveries"] > 0
 
 
+def test_guidance_sets_the_windows_planner_on_ticks(tmp_path, capsys):
+    """--guidance on the fleet on ticks (a floor): the windows' guided planner takes the
+    fields, its robots go otherwise, and summary.json records them."""
+    argv = ["--layout", "warehouse", "--robots", "24", "--ticks-per-move", "2", "--steps",
+            "200", "--policy", "guided"]  # fmt: skip
+    plain, _ = run(tmp_path, "plain", *argv)
+    guidance = {"vertex_weight": 0, "contraflow_weight": 0}
+    summary, _ = run(tmp_path, "priced", *argv, "--guidance", json.dumps(guidance))
+    capsys.readouterr()
+    assert summary["guidance"] == guidance
+    assert "guidance" not in plain
+    assert summary["deliveries"] > 0
+    assert summary["deliveries_per_step"] != plain["deliveries_per_step"]
+
+
 @needs_maze
 def test_replayed_delays_must_come_from_an_output_file_of_the_instance(tmp_path, capsys):
     bad = tmp_path / "bad.json"

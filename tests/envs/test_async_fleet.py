@@ -181,6 +181,12 @@ def test_bad_arguments_and_actions_are_refused_in_one_line():
         ({"num_robots": 10**400}, ValueError, r"^num_robots must be 1 to 1,000,000, got an "
                                               r"integer of 401 digits$"),
         ({"physics_threads": 0}, ValueError, "threads must be from 1 to 64"),
+        ({"planner": "guided", "guidance": {"nope": 1}}, TypeError,
+         "planner 'guided' has no field 'nope'; its fields: vertex_weight"),
+        ({"planner": "guided", "guidance": {"reroute": -1}}, ValueError, "reroute must be >= 0"),
+        ({"guidance": {"reroute": 1}}, ValueError, "plain PIBT takes no guidance"),
+        ({"planner": "guided", "guidance": [1]}, TypeError,
+         "guidance must be a mapping of a guided planner's fields, got list"),
     ],
 )  # fmt: skip
 def test_the_async_fleets_own_arguments_are_refused_by_name(kwargs, error, message):

@@ -13,6 +13,7 @@ and holds no rule of its own; its observations, actions and infos also come as a
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -154,6 +155,7 @@ class AsyncFleetEnv(ParallelEnv):
     - ``plan_every`` (ticks, default ``ticks_per_move``), ``window`` (steps, default 1),
       ``planner`` (``"pibt"``, default, ``"guided"`` or any other planner by name: the
       windows' planner, :data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`),
+      ``guidance`` (a guided planner's fields, ``{"reroute": 32}`` say; default its own),
       ``around_delays`` (``"wait"``, ``"reroute"``, ``"off"``: how the windows treat
       delayed robots, :class:`~warehouse_phys.execution.runner.Execution`),
       ``min_gap`` (cells; default the executor's, with physics what the bodies need;
@@ -197,6 +199,7 @@ class AsyncFleetEnv(ParallelEnv):
         window: int = 1,
         around_delays: str = "wait",
         planner: str = "pibt",
+        guidance: Mapping[str, Any] | None = None,
         min_gap: float | None = None,
         physics: bool = False,
         tick_steps: int | None = None,
@@ -240,10 +243,13 @@ class AsyncFleetEnv(ParallelEnv):
             raise TypeError(f"physical keywords {sorted(physical)} need physics=True")
         self.physics_threads = check_threads(physics_threads)
         seed = check_whole("seed", seed, 0, 2**63 - 1)
+        if guidance is not None and not isinstance(guidance, Mapping):
+            raise TypeError(f"guidance must be a mapping of a guided planner's fields, got "
+                            f"{type(guidance).__name__}")  # fmt: skip
         self._options = {"ticks_per_move": ticks_per_move, "speeds": speeds,
                          "plan_every": plan_every, "window": window,
                          "around_delays": around_delays, "seed": seed,
-                         "planner": planner}  # fmt: skip
+                         "planner": planner, "guidance": dict(guidance or {})}  # fmt: skip
         self._reachable = reachable_cells(self.grid)
         self._targets = package_cells(self.grid)
         if self.instance is None:

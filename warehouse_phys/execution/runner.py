@@ -22,7 +22,7 @@ pymunk nor pygame.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -108,6 +108,8 @@ class Execution:
             (:func:`~warehouse_phys.execution.windows.pibt_window`) unless every robot's
             moves take the same ticks and ``min_gap`` allows them, as the executor
             requires.
+        guidance: A planner named ``planner``: its guided planner's fields
+            (:func:`~warehouse_phys.execution.windows.window_planner`; None: its own).
         min_gap: The executor's closest approach of two centres [cells].
         around_delays: How the windows treat robots that a delay will still hold at the
             next tick: ``"wait"`` (default) plans them to wait, first (PIBT
@@ -136,6 +138,7 @@ class Execution:
         plan_every: int | None = None,
         window: int = 1,
         planner: PIBT | GuidedPIBT | str | None = None,
+        guidance: dict[str, Any] | None = None,
         min_gap: float = DEFAULT_MIN_GAP,
         around_delays: str = "wait",
         headings: ArrayLike | None = None,
@@ -168,7 +171,9 @@ class Execution:
         )
         moves = "grid" if headings is None else "rotate"
         if isinstance(planner, str):
-            planner = window_planner(planner, grid, moves=moves, seed=seed)
+            planner = window_planner(planner, grid, moves=moves, seed=seed, **(guidance or {}))
+        elif guidance:
+            raise ValueError("guidance sets the fields of a planner given by its name")
         self.planner = planner or PIBT(grid, moves=moves, seed=seed)
         if around_delays not in AROUND_DELAYS:
             raise ValueError(

@@ -17,6 +17,8 @@ neither gymnasium, pymunk nor pygame.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from warehouse_phys.execution.plan_checks import NO_ROBOT, and_along, checked_cells, rows_cols
@@ -35,16 +37,18 @@ WINDOW_PLANNERS = PLANNERS
 
 
 def window_planner(
-    name: str, grid: WarehouseGrid, *, moves: str = "grid", seed: int = 0
+    name: str, grid: WarehouseGrid, *, moves: str = "grid", seed: int = 0, **guidance: Any
 ) -> PIBT | GuidedPIBT:
-    """The planner of :data:`WINDOW_PLANNERS` called ``name`` for ``grid`` and ``moves``
+    """The planner of :data:`WINDOW_PLANNERS` called ``name`` for ``grid`` and ``moves``,
+    with a guided planner's fields ``guidance``
     (:func:`~warehouse_phys.planners.named.named_planner`).
 
     Raises:
-        ValueError: for another name, or a planner of turning robots only with ``moves``
-            other than ``"rotate"``.
+        ValueError: for another name, guidance given to plain PIBT, or a planner of
+            turning robots only with ``moves`` other than ``"rotate"``.
+        TypeError: naming a field the planner lacks.
     """
-    return named_planner(name, grid, moves=moves, seed=seed)
+    return named_planner(name, grid, moves=moves, seed=seed, **guidance)
 
 
 def pibt_window(

@@ -355,10 +355,6 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
             ticks=args.steps,
             guidance=args.guidance,
         ), None
-    if args.guidance and ticks is not None:
-        raise UsageError("--guidance sets the planner of a lock-step run or of one by the "
-                         "start kit's rules (an instance, --moves rotate), not the fleet's "
-                         "on ticks")  # fmt: skip
     if args.delays_from is not None:
         raise UsageError(
             "--delays-from replays a start-kit run's delays by the kit's rules: an "
@@ -368,6 +364,7 @@ def _setup(args: argparse.Namespace) -> tuple[Any, FleetPolicy | None]:
         if ticks is not None:
             return tick_fleet(floor, ticks, ticks=args.steps, physics=args.physics,
                               seed=args.seed, moves=args.moves, planner=args.policy,
+                              guidance=args.guidance,
                               physics_threads=args.physics_threads), None  # fmt: skip
         bodies = {"physics_threads": args.physics_threads, "track_gaps": False}  # safety measures
         env = parallel_env(

@@ -178,11 +178,13 @@ def default_ticks(instance: LorrInstance | None, options: TickOptions) -> int:
 def tick_fleet(
     floor: dict[str, Any], options: TickOptions, *, ticks: int, physics: bool, seed: int,
     moves: str = "grid", physics_threads: int = 1, planner: str = "pibt",
+    guidance: dict[str, Any] | None = None,
 ) -> AsyncFleetEnv:  # fmt: skip
     """The asynchronous fleet on ``floor`` (the lock-step fleet's floor keywords:
     ``instance`` and ``record_errands``, or ``layout``/``grid_rows``/``grid_cols`` and
     ``num_robots``; ``on_delivery`` is dropped) for ``ticks`` ticks, its windows planned
-    by ``planner`` (:data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`).
+    by ``planner`` (:data:`~warehouse_phys.execution.windows.WINDOW_PLANNERS`) with the
+    fields ``guidance``.
 
     Raises:
         ValueError, TypeError: as the environment refuses its arguments.
@@ -192,7 +194,7 @@ def tick_fleet(
     kwargs = {key: value for key, value in floor.items() if key != "on_delivery"}
     return parallel_env(ticks_per_move=options.ticks_per_move, delays=options.delays,
                         max_cycles=ticks, physics=physics, seed=seed, moves=moves,
-                        planner=planner,
+                        planner=planner, guidance=guidance,
                         **({"physics_threads": physics_threads} if physics else {}),
                         **kwargs)  # fmt: skip
 
