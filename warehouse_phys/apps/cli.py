@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
-import json
 import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
@@ -120,18 +119,19 @@ def bounded_int(minimum: int, what: str, maximum: int | None = None) -> Any:
 def guidance_fields(text: str) -> dict[str, Any]:
     """An argument type: a JSON object of a guided planner's fields (those of
     :class:`~warehouse_phys.planners.guidance_config.GuidanceConfig`, and a repairing
-    planner's repair), such as ``{"reroute": 32}``; the planner checks the fields."""
+    planner's repair), such as ``{"reroute": 32}``
+    (:func:`~warehouse_phys.planners.named.guidance_from_json`)."""
+    # Here, not at the top: every command imports this module, few need the planners.
+    from warehouse_phys.planners.named import guidance_from_json
+
     try:
-        fields = json.loads(text)
+        return guidance_from_json(text)
     except ValueError:
-        fields = None
-    if not isinstance(fields, dict):
         shown = text if len(text) <= 40 else f"{text[:40]}..."
         raise argparse.ArgumentTypeError(
             f"expected a JSON object of planner fields, such as '{{\"reroute\": 32}}', "
             f"got {shown!r}"
-        )
-    return fields
+        ) from None
 
 
 def add_guidance_argument(parser: argparse.ArgumentParser) -> None:

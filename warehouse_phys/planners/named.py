@@ -21,6 +21,7 @@ pygame.
 from __future__ import annotations
 
 import dataclasses
+import json
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
@@ -76,6 +77,24 @@ class PlannerSetup(NamedTuple):
     config: GuidanceConfig | None
     operations: int
     repair: dict[str, Any] | None
+
+
+def guidance_from_json(text: str) -> dict[str, Any]:
+    """The guided planner's fields in ``text``, a JSON object such as ``{"reroute": 32}``
+    (the command lines' ``--guidance``, the entry's ``WAREHOUSE_PHYS_GUIDANCE``); the
+    planner checks the fields themselves (:func:`split_guidance`).
+
+    Raises:
+        ValueError: for text that is not a JSON object.
+    """
+    try:
+        fields = json.loads(text)
+    except ValueError:
+        fields = None
+    if not isinstance(fields, dict):
+        raise ValueError("not a JSON object of the planner's fields, such as "
+                         '{"reroute": 32}')  # fmt: skip
+    return fields
 
 
 def split_guidance(name: str, guidance: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -52,7 +52,6 @@ the executor's state stays the kit's.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import threading
@@ -70,6 +69,7 @@ from warehouse_phys.lorr.startkit.planner import (
     with_held,
 )
 from warehouse_phys.lorr.startkit.scheduler import EntryScheduler, OpenTasks
+from warehouse_phys.planners.named import guidance_from_json
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES
 from warehouse_phys.world.traffic import neighbour_table
@@ -147,13 +147,9 @@ def entry_guidance() -> dict[str, Any]:
     """
     text = setting("WAREHOUSE_PHYS_GUIDANCE")
     try:
-        fields = json.loads(text)
-    except ValueError:
-        fields = None
-    if not isinstance(fields, dict):
-        raise ValueError(f"WAREHOUSE_PHYS_GUIDANCE={text}: not a JSON object of the planner's "
-                         "fields, such as {\"reroute\": 32}")  # fmt: skip
-    return fields
+        return guidance_from_json(text)
+    except ValueError as error:
+        raise ValueError(f"WAREHOUSE_PHYS_GUIDANCE={text}: {error}") from None
 
 
 def kit_grid(env: Any) -> WarehouseGrid:
