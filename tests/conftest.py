@@ -11,6 +11,14 @@ os.environ["SDL_VIDEODRIVER"] = "dummy"
 os.environ["SDL_AUDIODRIVER"] = "dummy"
 os.environ["MPLBACKEND"] = "Agg"
 os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
+# The suite starts some 160 Python processes that import the package. Where bytecode
+# caching is off (PYTHONDONTWRITEBYTECODE, which many containers set), each of them
+# compiles every module it imports again (0.2 s of CPU for `simulate`'s, here), and
+# every xdist worker rewrites every test module's asserts again. The suite turns the
+# caching back on for itself and its subprocesses; the caches go to the __pycache__
+# folders, which git ignores.
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+sys.dont_write_bytecode = False
 
 import pytest
 from hypothesis import settings
