@@ -11,6 +11,10 @@ os.environ["SDL_VIDEODRIVER"] = "dummy"
 os.environ["SDL_AUDIODRIVER"] = "dummy"
 os.environ["MPLBACKEND"] = "Agg"
 os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
+
+import pytest
+from hypothesis import settings
+
 # The suite starts some 160 Python processes that import the package. Where bytecode
 # caching is off (PYTHONDONTWRITEBYTECODE, which many containers set), each of them
 # compiles every module it imports again (0.2 s of CPU for `simulate`'s, here), and
@@ -19,9 +23,6 @@ os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
 # folders, which git ignores.
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 sys.dont_write_bytecode = False
-
-import pytest
-from hypothesis import settings
 
 # CI runs the same examples every time; locally hypothesis explores as usual.
 settings.register_profile("ci", derandomize=True, database=None, deadline=None)
