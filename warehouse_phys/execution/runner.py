@@ -21,6 +21,7 @@ pymunk nor pygame.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -138,7 +139,7 @@ class Execution:
         plan_every: int | None = None,
         window: int = 1,
         planner: PIBT | GuidedPIBT | str | None = None,
-        guidance: dict[str, Any] | None = None,
+        guidance: Mapping[str, Any] | None = None,
         min_gap: float = DEFAULT_MIN_GAP,
         around_delays: str = "wait",
         headings: ArrayLike | None = None,
