@@ -266,12 +266,34 @@ def test_no_package_holds_more_than_a_dozen_modules_side_by_side():
     assert crowded == {}, f"packages that became halls again: {crowded}"
 
 
-def test_importing_the_package_leaves_the_heavy_optional_modules_unloaded(run_python):
+#: Heavy modules the commands import where they use them (ARCHITECTURE.md): the fleets'
+#: bodies, schedulers and planners' kernels (numba, SciPy's), the figures, Ray. Together
+#: 0.7 s of CPU at every start of a command that needs none of them.
+HEAVY_MODULES = ("numba", "scipy.ndimage", "scipy.sparse", "scipy.spatial", "matplotlib", "ray")
+
+
+@pytest.mark.parametrize(
+    "module",
+    ["warehouse_phys", "warehouse_phys.train", "warehouse_phys.play", "warehouse_phys.sweep",
+     "warehouse_phys.evaluate", "warehouse_phys.envs.fleet"],
+)  # fmt: skip
+def test_the_commands_leave_the_heavy_modules_to_where_they_are_used(run_python, module):
     # A fresh `import warehouse_phys` (every command and subprocess pays it) takes about
-    # 0.3 s; scipy.ndimage alone would add as much. Modules that need it import it where
-    # they use it (the controller check builds its probe floor on first use).
+    # 0.3 s. `python -m warehouse_phys.train` (the README's first command) trains one
+    # robot: it imports the fleets' module for its fleet options, not the bodies, the
+    # schedulers' matching or the planners' kernels, which a fleet loads at its first reset.
     loaded = run_python(
-        "import sys, warehouse_phys\n"
-        "print(sorted(m for m in ('scipy.ndimage', 'matplotlib', 'ray') if m in sys.modules))"
+        f"import sys, {module}\nprint(sorted(m for m in {HEAVY_MODULES!r} if m in sys.modules))"
     )
     assert loaded.strip() == "[]"
+
+
+def test_a_fleet_of_bodies_loads_them_at_its_first_reset(run_python):
+    loaded = run_python(
+        "import sys\n"
+        "from warehouse_phys.envs.fleet import parallel_env\n"
+        "env = parallel_env(num_robots=3, physics=True)\n"
+        "env.reset(seed=0)\n"
+        "print('warehouse_phys.physics.batched' in sys.modules, 'numba' in sys.modules)"
+    )
+    assert loaded.split() == ["True", "True"]

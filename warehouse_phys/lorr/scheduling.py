@@ -38,7 +38,6 @@ import inspect
 from collections.abc import Callable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 #: A scheduler: free robots' cells, open tasks' first errands, the floor's width ->
 #: the task each free robot takes (-1: none).
@@ -133,6 +132,8 @@ def _greedy_pairs(robot_at: np.ndarray, task_at: np.ndarray) -> np.ndarray:
     """The greedy matching of robots and tasks, points in as many dimensions as given, by
     their Manhattan distance, least first (ties: the lower robot, then the earlier task):
     for each robot the task it takes, -1 for none. See :func:`nearest_free_robot`."""
+    from scipy.spatial import cKDTree  # here: 0.3 s to import, for the fleets that schedule
+
     choice = np.full(len(robot_at), -1, dtype=np.int64)
     robots = np.arange(len(robot_at))
     tasks = np.arange(len(task_at))

@@ -33,7 +33,6 @@ pygame. Cells are numbered row by row, ``index = row * cols + col``.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 from warehouse_phys.world.grid import WarehouseGrid
 
@@ -128,6 +127,8 @@ class DistanceMaps:
 
     def _build_search(self, free: np.ndarray, free_cells: np.ndarray) -> None:
         """The move graph, the regions and the guide paths' storage (a few bytes a cell)."""
+        from scipy import ndimage  # 0.3 s to import: loaded, as Numba, for shelved floors only
+
         from warehouse_phys.planners import graph_search  # Numba: loaded only for shelved floors
 
         self._search = graph_search

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
@@ -43,13 +43,15 @@ from warehouse_phys.envs.fleet.state import FleetState
 from warehouse_phys.lorr.instances import LorrInstance
 from warehouse_phys.lorr.scheduling import Scheduler
 from warehouse_phys.physics import PhysicsConfig
-from warehouse_phys.physics.batched import BatchedPhysicsWorld
 from warehouse_phys.physics.regions import check_threads
-from warehouse_phys.physics.safety import SafetyRecord
 from warehouse_phys.world.batched import step_rewards
 from warehouse_phys.world.headings import TURN_ACTIONS, joint_grants
 from warehouse_phys.world.placement import START_MODES
 from warehouse_phys.world.traffic import FLEET_ACTIONS
+
+if TYPE_CHECKING:  # the bodies are imported with their first world (envs.fleet.physics)
+    from warehouse_phys.physics.batched import BatchedPhysicsWorld
+    from warehouse_phys.physics.safety import SafetyRecord
 
 __all__ = [
     "DELIVERY_MODES",

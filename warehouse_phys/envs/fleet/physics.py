@@ -10,12 +10,16 @@ reads the cells (and a turning robot's heading) back from the bodies.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from warehouse_phys.drawing.render import WarehouseRenderer
 from warehouse_phys.physics import PhysicsConfig
-from warehouse_phys.physics.batched import BatchedPhysicsWorld
 from warehouse_phys.world.grid import WarehouseGrid
+
+if TYPE_CHECKING:
+    from warehouse_phys.physics.batched import BatchedPhysicsWorld
 
 __all__ = ["drive_bodies", "motion_frames", "started_world"]
 
@@ -37,6 +41,10 @@ def started_world(
     regions; ``safety``: whether it measures every physics step)."""
     n = len(cells)
     if world is None:
+        # Imported at the first reset of a fleet of bodies: every command that imports the
+        # fleets would otherwise pay for the bodies' SciPy and numba (0.5 s).
+        from warehouse_phys.physics.batched import BatchedPhysicsWorld
+
         return BatchedPhysicsWorld(
             grid, physics, cells, np.zeros(n, dtype=np.int64), record_path=record_path,
             headings=headings, threads=threads, safety=safety,

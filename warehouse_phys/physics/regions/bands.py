@@ -25,10 +25,7 @@ Pure functions of arrays, O(N) with the compiled neighbour search.
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 
-from warehouse_phys.physics.regions.proximity import near_pairs, segment_gaps
 from warehouse_phys.world.grid import WarehouseGrid
 
 #: Room beyond a controller's worst accepted error when linking robots [cells].
@@ -67,6 +64,13 @@ def region_of_robots(
     home = home_bands(start[:, 1], edges)
     if not len(edges) or len(start) < 2:
         return home
+    # Imported here, at a fleet of bodies' first step: numba and SciPy's sparse graphs
+    # take 0.3 s to import, which every command importing the fleets would pay.
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from warehouse_phys.physics.regions.proximity import near_pairs, segment_gaps
+
     half = np.sqrt(((end - start) ** 2).sum(axis=1)).max(initial=0.0)
     middles = np.ascontiguousarray((start + end) / 2)
     pairs = near_pairs(middles, np.ascontiguousarray(floors), reach + half * 2 + 1e-9)
