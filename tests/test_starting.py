@@ -2,6 +2,7 @@
 death by SIGINT, which a shell reports as 130); a program importing the package gets its
 KeyboardInterrupt back."""
 
+import os
 import signal
 import subprocess
 import sys
@@ -17,7 +18,7 @@ from warehouse_phys._starting import (
 )
 
 #: After Python's own start (about 0.1 s, beyond the package's reach), within the imports.
-DELAYS = [0.4, 0.8]
+DELAYS = [0.3, 0.5]
 
 
 @pytest.mark.parametrize("delay", DELAYS)
@@ -42,6 +43,49 @@ def test_ctrl_c_while_a_command_imports_prints_one_line(module, delay):
         f"{prog}: interrupted while starting; nothing was written",
         f"{prog}: interrupted; nothing was written",
     )
+
+
+#: Loaded by the command's Python (sitecustomize): Ctrl-C sent to itself as the command
+#: imports ``TARGET``, found by this finder on the import system's path of lookups.
+INTERRUPT_AT_IMPORT = """
+import os
+import signal
+import sys
+
+
+class InterruptAt:
+    def find_spec(self, name, path=None, target=None):
+        if name == {target!r}:
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+
+sys.meta_path.insert(0, InterruptAt())
+"""
+
+
+@pytest.mark.parametrize(
+    ("module", "target"),
+    [
+        ("warehouse_phys.train", "warehouse_phys.envs.base"),  # the package's own imports
+        ("warehouse_phys.train", "warehouse_phys.apps.train"),  # the command's
+        # Within numba's compiled _dispatcher, whose start prints an interrupt's traceback
+        # itself and fails with ImportError: the interrupt must not land there.
+        ("warehouse_phys.simulate", "numba._devicearray"),
+    ],
+)
+def test_ctrl_c_at_any_import_of_a_command_prints_one_line(tmp_path, module, target):
+    (tmp_path / "sitecustomize.py").write_text(INTERRUPT_AT_IMPORT.format(target=target))
+    result = subprocess.run(
+        [sys.executable, "-m", module, "--robots", "0"], cwd=ROOT, capture_output=True,
+        text=True, timeout=60, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])},
+    )  # fmt: skip
+    assert result.stderr == (
+        f"python -m {module}: interrupted while starting; nothing was written\n"
+    )
+    assert result.returncode == 130
 
 
 def test_a_program_that_imports_the_package_gets_its_interrupt_back(monkeypatch):
