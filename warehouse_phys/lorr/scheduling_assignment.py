@@ -161,7 +161,7 @@ class AssignmentScheduler:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each robot's cheapest tasks by Manhattan makespan (a k-d tree), and each such
         pair's cost on the floor: ``(robots, tasks, costs)``, a pair a position."""
-        from scipy.spatial import cKDTree
+        from scipy.spatial import cKDTree  # here, as the matching's SciPy (above)
 
         k = min(self.candidates, len(task_cells))
         robot_at = np.column_stack([_points(robot_cells, cols), np.zeros(len(robot_cells))])
