@@ -6,7 +6,9 @@ numpy, pymunk, numba, ...) before its ``main`` takes charge of interrupts
 an interrupt there ends the command with ``python -m warehouse_phys.<app>: interrupted
 while starting; nothing was written`` and status 130, as an interrupt later does. Code
 that imports the package for itself (a script, a notebook, a test run) gets its
-``KeyboardInterrupt`` back, as ever. Imports nothing Python has not loaded at start (an
+``KeyboardInterrupt`` back, as ever. Each command's module wraps its own imports too, for
+the long names (``python -m warehouse_phys.apps.<app>``), which import it outside the
+package's block. Imports nothing Python has not loaded at start (an
 interrupt in Python's own start, before the package's first line, is beyond its reach).
 
 While a command imports, Ctrl-C is *held*: Python's handler is replaced by one that notes

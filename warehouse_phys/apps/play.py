@@ -27,39 +27,44 @@ machine with no display ends with exit status 1 and says so.
 
 from __future__ import annotations
 
-import argparse
-import sys
-from typing import Any
+from warehouse_phys._starting import command_interrupts
 
-import gymnasium as gym
-import numpy as np
+# python -m warehouse_phys.apps.<app> runs this module as __main__: Ctrl-C while it
+# imports is the command's one line, as with the short name's.
+with command_interrupts(__name__ == "__main__"):
+    import argparse
+    import sys
+    from typing import Any
 
-from warehouse_phys.apps.cli import (
-    DEFAULT_ENV,
-    ArgumentParser,
-    Floor,
-    UsageError,
-    add_env_argument,
-    add_floor_arguments,
-    add_robots_argument,
-    bounded_int,
-    floor_from_args,
-    warnings_in_one_line,
-)
-from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
-from warehouse_phys.drawing.display import NoDisplayError, check_display, import_pygame
-from warehouse_phys.drawing.render import (
-    DEFAULT_CELL_PX,
-    MAX_FRAME_PIXELS,
-    MAX_FRAME_SIDE_PX,
-    FrameTooLargeError,
-    fit_text,
-)
-from warehouse_phys.envs import WarehousePhysicsEnv
-from warehouse_phys.envs.fleet import WarehouseFleetEnv
-from warehouse_phys.planners.pibt import PIBT
-from warehouse_phys.world.grid import Action
-from warehouse_phys.world.traffic import WAIT
+    import gymnasium as gym
+    import numpy as np
+
+    from warehouse_phys.apps.cli import (
+        DEFAULT_ENV,
+        ArgumentParser,
+        Floor,
+        UsageError,
+        add_env_argument,
+        add_floor_arguments,
+        add_robots_argument,
+        bounded_int,
+        floor_from_args,
+        warnings_in_one_line,
+    )
+    from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
+    from warehouse_phys.drawing.display import NoDisplayError, check_display, import_pygame
+    from warehouse_phys.drawing.render import (
+        DEFAULT_CELL_PX,
+        MAX_FRAME_PIXELS,
+        MAX_FRAME_SIDE_PX,
+        FrameTooLargeError,
+        fit_text,
+    )
+    from warehouse_phys.envs import WarehousePhysicsEnv
+    from warehouse_phys.envs.fleet import WarehouseFleetEnv
+    from warehouse_phys.planners.pibt import PIBT
+    from warehouse_phys.world.grid import Action
+    from warehouse_phys.world.traffic import WAIT
 
 PROG = "python -m warehouse_phys.play"
 #: Pace of the window while waiting for a key [frames/s].

@@ -37,24 +37,29 @@ status: 0; 2 for a bad command line or instance; 1 when the kit cannot be built 
 
 from __future__ import annotations
 
-import argparse
-import json
-import os
-import sys
-from pathlib import Path
-from typing import Any
+from warehouse_phys._starting import command_interrupts
 
-from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int, guidance_fields
-from warehouse_phys.files.atomic import atomic_write_text
-from warehouse_phys.lorr.instances import read_instance
-from warehouse_phys.lorr.startkit.adapters import entry_guidance, setting
-from warehouse_phys.lorr.startkit.build import KitBuildError, NotAKitError, build_kit
-from warehouse_phys.lorr.startkit.install import InstallError, install
-from warehouse_phys.lorr.startkit.planner import entry_planner
-from warehouse_phys.lorr.startkit.runs import RUNS, comparison_table, run_kit, run_simulate
-from warehouse_phys.lorr.startkit.scheduler import ENTRY_SCHEDULERS, FLEET_SCHEDULERS
-from warehouse_phys.planners.named import PLANNERS
-from warehouse_phys.world.grid import WarehouseGrid
+# python -m warehouse_phys.apps.<app> runs this module as __main__: Ctrl-C while it
+# imports is the command's one line, as with the short name's.
+with command_interrupts(__name__ == "__main__"):
+    import argparse
+    import json
+    import os
+    import sys
+    from pathlib import Path
+    from typing import Any
+
+    from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int, guidance_fields
+    from warehouse_phys.files.atomic import atomic_write_text
+    from warehouse_phys.lorr.instances import read_instance
+    from warehouse_phys.lorr.startkit.adapters import entry_guidance, setting
+    from warehouse_phys.lorr.startkit.build import KitBuildError, NotAKitError, build_kit
+    from warehouse_phys.lorr.startkit.install import InstallError, install
+    from warehouse_phys.lorr.startkit.planner import entry_planner
+    from warehouse_phys.lorr.startkit.runs import RUNS, comparison_table, run_kit, run_simulate
+    from warehouse_phys.lorr.startkit.scheduler import ENTRY_SCHEDULERS, FLEET_SCHEDULERS
+    from warehouse_phys.planners.named import PLANNERS
+    from warehouse_phys.world.grid import WarehouseGrid
 
 PROG = "python -m warehouse_phys.startkit"
 

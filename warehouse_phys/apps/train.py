@@ -37,45 +37,50 @@ message, before anything is written. The algorithm lives in
 
 from __future__ import annotations
 
-import argparse
-import sys
-import time
-from collections.abc import Callable
-from pathlib import Path
-from typing import Any, TypeVar
+from warehouse_phys._starting import command_interrupts
 
-from warehouse_phys.apps.cli import (
-    DEFAULT_ENV,
-    ArgumentParser,
-    Floor,
-    UsageError,
-    add_env_argument,
-    add_floor_arguments,
-    add_robots_argument,
-    bounded_int,
-    floor_from_args,
-    opened_run_folder,
-    warnings_in_one_line,
-)
-from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
-from warehouse_phys.apps.runs import (
-    CURVE_FILE,
-    EVALUATION_SEEDS,
-    GIF_FILE,
-    RUN_FILES,
-    SUMMARY_FILE,
-    TABLE_FILE,
-    train_fleet_run,
-    train_run,
-)
-from warehouse_phys.apps.train_eval import evaluate_saved, refuse_training_options, watch
-from warehouse_phys.drawing.display import NoDisplayError, check_display
-from warehouse_phys.envs.fleet.setup import MAX_PHYSICS_ROBOTS
-from warehouse_phys.files.runfolder import RunFolder, RunFolderError, RunWriteError
-from warehouse_phys.rl.fleet_evaluation import compare_policies
-from warehouse_phys.rl.greedy_policy import Evaluation
-from warehouse_phys.rl.qlearning import QLearningConfig, check_training_memory, table_tail
-from warehouse_phys.world.layouts import PRESETS
+# python -m warehouse_phys.apps.<app> runs this module as __main__: Ctrl-C while it
+# imports is the command's one line, as with the short name's.
+with command_interrupts(__name__ == "__main__"):
+    import argparse
+    import sys
+    import time
+    from collections.abc import Callable
+    from pathlib import Path
+    from typing import Any, TypeVar
+
+    from warehouse_phys.apps.cli import (
+        DEFAULT_ENV,
+        ArgumentParser,
+        Floor,
+        UsageError,
+        add_env_argument,
+        add_floor_arguments,
+        add_robots_argument,
+        bounded_int,
+        floor_from_args,
+        opened_run_folder,
+        warnings_in_one_line,
+    )
+    from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
+    from warehouse_phys.apps.runs import (
+        CURVE_FILE,
+        EVALUATION_SEEDS,
+        GIF_FILE,
+        RUN_FILES,
+        SUMMARY_FILE,
+        TABLE_FILE,
+        train_fleet_run,
+        train_run,
+    )
+    from warehouse_phys.apps.train_eval import evaluate_saved, refuse_training_options, watch
+    from warehouse_phys.drawing.display import NoDisplayError, check_display
+    from warehouse_phys.envs.fleet.setup import MAX_PHYSICS_ROBOTS
+    from warehouse_phys.files.runfolder import RunFolder, RunFolderError, RunWriteError
+    from warehouse_phys.rl.fleet_evaluation import compare_policies
+    from warehouse_phys.rl.greedy_policy import Evaluation
+    from warehouse_phys.rl.qlearning import QLearningConfig, check_training_memory, table_tail
+    from warehouse_phys.world.layouts import PRESETS
 
 PROG = "python -m warehouse_phys.train"
 Outcome = TypeVar("Outcome")

@@ -68,73 +68,78 @@ policies by name, the run folder's files).
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
-import functools
-import gc
-import sys
-import time
-from pathlib import Path
-from typing import Any
+from warehouse_phys._starting import command_interrupts
 
-import numpy as np
+# python -m warehouse_phys.apps.<app> imports this package before its __main__: Ctrl-C
+# while it imports is the command's one line, as with the short name's.
+with command_interrupts():
+    import argparse
+    import dataclasses
+    import functools
+    import gc
+    import sys
+    import time
+    from pathlib import Path
+    from typing import Any
 
-from warehouse_phys.apps.cli import (
-    MAX_CLI_ROBOTS,
-    ArgumentParser,
-    UsageError,
-    add_guidance_argument,
-    bounded_int,
-    floor_from_layout,
-    opened_run_folder,
-    warnings_in_one_line,
-    written_note,
-)
-from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
-from warehouse_phys.apps.simulate.lockstep import (
-    BASELINES,
-    COMPARE_BUDGET,
-    comparison_table,
-    run_baselines,
-    simulate,
-)
-from warehouse_phys.apps.simulate.on_kit import (
-    add_kit_arguments,
-    kit_rules,
-    kit_system,
-    simulate_kit,
-    write_kit_output,
-)
-from warehouse_phys.apps.simulate.on_ticks import (
-    add_tick_arguments,
-    default_ticks,
-    simulate_ticks,
-    tick_fleet,
-    tick_options,
-)
-from warehouse_phys.apps.simulate.results import (
-    BASELINE_POLICIES,
-    DEFAULT_STEPS,
-    INSTANCE_STEPS,
-    POLICIES,
-    RUN_FILES,
-    Simulation,
-    make_policy,
-    write_lorr_output,
-    write_run_files,
-)
-from warehouse_phys.envs.fleet import WarehouseFleetEnv, parallel_env
-from warehouse_phys.envs.fleet.setup import DELIVERY_MODES
-from warehouse_phys.lorr.instances import SCHEDULED, read_instance
-from warehouse_phys.lorr.output import RunRecord
-from warehouse_phys.lorr.scheduling_assignment import SCHEDULER_NAMES, scheduler_for
-from warehouse_phys.lorr.startkit.system import KitSystem
-from warehouse_phys.lorr.station_cap import STATION_CAP
-from warehouse_phys.rl.fleet_evaluation import FleetPolicy
-from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
-from warehouse_phys.world.headings import MOVE_MODELS
-from warehouse_phys.world.layouts import FLEET_PRESETS, PRESETS
-from warehouse_phys.world.maps import MAPS
+    import numpy as np
+
+    from warehouse_phys.apps.cli import (
+        MAX_CLI_ROBOTS,
+        ArgumentParser,
+        UsageError,
+        add_guidance_argument,
+        bounded_int,
+        floor_from_layout,
+        opened_run_folder,
+        warnings_in_one_line,
+        written_note,
+    )
+    from warehouse_phys.apps.interrupts import interruption, stops_on_sigterm
+    from warehouse_phys.apps.simulate.lockstep import (
+        BASELINES,
+        COMPARE_BUDGET,
+        comparison_table,
+        run_baselines,
+        simulate,
+    )
+    from warehouse_phys.apps.simulate.on_kit import (
+        add_kit_arguments,
+        kit_rules,
+        kit_system,
+        simulate_kit,
+        write_kit_output,
+    )
+    from warehouse_phys.apps.simulate.on_ticks import (
+        add_tick_arguments,
+        default_ticks,
+        simulate_ticks,
+        tick_fleet,
+        tick_options,
+    )
+    from warehouse_phys.apps.simulate.results import (
+        BASELINE_POLICIES,
+        DEFAULT_STEPS,
+        INSTANCE_STEPS,
+        POLICIES,
+        RUN_FILES,
+        Simulation,
+        make_policy,
+        write_lorr_output,
+        write_run_files,
+    )
+    from warehouse_phys.envs.fleet import WarehouseFleetEnv, parallel_env
+    from warehouse_phys.envs.fleet.setup import DELIVERY_MODES
+    from warehouse_phys.lorr.instances import SCHEDULED, read_instance
+    from warehouse_phys.lorr.output import RunRecord
+    from warehouse_phys.lorr.scheduling_assignment import SCHEDULER_NAMES, scheduler_for
+    from warehouse_phys.lorr.startkit.system import KitSystem
+    from warehouse_phys.lorr.station_cap import STATION_CAP
+    from warehouse_phys.rl.fleet_evaluation import FleetPolicy
+    from warehouse_phys.rl.fleet_planners import PLANNERS, planner_policy
+    from warehouse_phys.world.headings import MOVE_MODELS
+    from warehouse_phys.world.layouts import FLEET_PRESETS, PRESETS
+    from warehouse_phys.world.maps import MAPS
 
 #: The command's names, its own and those its modes' modules define: all import from here.
 __all__ = [

@@ -43,62 +43,72 @@ the locks) and :mod:`~warehouse_phys.apps.sweep.on_ray` (Ray and Tune).
 
 from __future__ import annotations
 
-import argparse
-import contextlib
-import importlib.util
-import os
-import signal
-import sys
-import time
-from pathlib import Path
-from typing import Any
+from warehouse_phys._starting import command_interrupts
 
-from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int, warnings_in_one_line
-from warehouse_phys.apps.interrupts import Terminated, deferred, stops_on_sigterm
-from warehouse_phys.apps.runs import ENVIRONMENTS
-from warehouse_phys.apps.sweep.on_ray import (
-    CONNECT_TIMEOUT,
-    AddressRefusedError,
-    RayUnavailableError,
-    _terminated,
-    check_address,
-    check_cpus_per_trial,
-    ray_session,
-    run_on_tune,
-    run_trial,
-    run_trial_job,
-)
-from warehouse_phys.apps.sweep.resume import (
-    FOLDER_WAIT,
-    SWEEP_ENTRIES,
-    SupersededError,
-    TrialFolder,
-    check_sweep_folder,
-    finished_row,
-    take_sweep_lock,
-)
-from warehouse_phys.apps.sweep.trials import (
-    COLUMNS,
-    DEFAULT_FLOOR,
-    LOCK_FILE,
-    MAX_SEEDS,
-    MAX_TRIALS,
-    RESULTS_CSV,
-    RESULTS_JSON,
-    SUMMARY_PNG,
-    Setting,
-    Trial,
-    _row,
-    expand_trials,
-    settings_from_args,
-    trials_from_args,
-    write_results,
-)
-from warehouse_phys.files.runfolder import make_folders, remove_empty
-from warehouse_phys.rl.qlearning import QLearningConfig
-from warehouse_phys.world.grid import DEFAULT_COLS, DEFAULT_ROWS
-from warehouse_phys.world.layout_text import MAX_SIDE, MIN_SIDE
-from warehouse_phys.world.layouts import PRESETS
+# python -m warehouse_phys.apps.<app> imports this package before its __main__: Ctrl-C
+# while it imports is the command's one line, as with the short name's.
+with command_interrupts():
+    import argparse
+    import contextlib
+    import importlib.util
+    import os
+    import signal
+    import sys
+    import time
+    from pathlib import Path
+    from typing import Any
+
+    from warehouse_phys.apps.cli import (
+        ArgumentParser,
+        UsageError,
+        bounded_int,
+        warnings_in_one_line,
+    )
+    from warehouse_phys.apps.interrupts import Terminated, deferred, stops_on_sigterm
+    from warehouse_phys.apps.runs import ENVIRONMENTS
+    from warehouse_phys.apps.sweep.on_ray import (
+        CONNECT_TIMEOUT,
+        AddressRefusedError,
+        RayUnavailableError,
+        _terminated,
+        check_address,
+        check_cpus_per_trial,
+        ray_session,
+        run_on_tune,
+        run_trial,
+        run_trial_job,
+    )
+    from warehouse_phys.apps.sweep.resume import (
+        FOLDER_WAIT,
+        SWEEP_ENTRIES,
+        SupersededError,
+        TrialFolder,
+        check_sweep_folder,
+        finished_row,
+        take_sweep_lock,
+    )
+    from warehouse_phys.apps.sweep.trials import (
+        COLUMNS,
+        DEFAULT_FLOOR,
+        LOCK_FILE,
+        MAX_SEEDS,
+        MAX_TRIALS,
+        RESULTS_CSV,
+        RESULTS_JSON,
+        SUMMARY_PNG,
+        Setting,
+        Trial,
+        _row,
+        expand_trials,
+        settings_from_args,
+        trials_from_args,
+        write_results,
+    )
+    from warehouse_phys.files.runfolder import make_folders, remove_empty
+    from warehouse_phys.rl.qlearning import QLearningConfig
+    from warehouse_phys.world.grid import DEFAULT_COLS, DEFAULT_ROWS
+    from warehouse_phys.world.layout_text import MAX_SIDE, MIN_SIDE
+    from warehouse_phys.world.layouts import PRESETS
 
 #: The command's names, its own and those its parts' modules define: all import from here.
 __all__ = [
