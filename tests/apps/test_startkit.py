@@ -84,6 +84,33 @@ def test_guidance_the_entry_cannot_take_is_refused_before_the_kit_runs(
     assert not (tmp_path / "out").exists()
 
 
+def test_a_folder_holding_an_earlier_run_is_refused_in_one_line_before_anything_runs(
+    tmp_path, capsys
+):
+    from tests.lorr.test_startkit_run_folder import earlier_run
+    from tests.lorr.tiny_kit_instance import tiny_instance
+    from warehouse_phys.lorr.instances import write_instance
+
+    path = write_instance(tiny_instance(), tmp_path / "tiny.json")
+    out = tmp_path / "out"
+    setting = {"instance": str(path), "ticks": 5, "kit": str(tmp_path), "guidance": {},
+               "planner": "guided-ops-repair", "scheduler": "assignment"}  # fmt: skip
+    earlier_run(out, setting=setting)
+    before = {file: file.read_bytes() for file in out.rglob("*") if file.is_file()}
+    argv = ["run", str(path), "--kit", str(tmp_path), "--ticks", "5", "--out", str(out)]
+    for extra, message in (
+        ([], "holds an earlier run (default.json, default.log, default.timings, ours.json, "),
+        (["--only", "simulate"], "holds an earlier simulate run (simulate)"),
+        (["--only", "ours", "--ticks", "6"], "holds a run of another setting (ticks 5, not 6)"),
+    ):
+        assert startkit.main([*argv, *extra]) == 2
+        err = capsys.readouterr().err
+        assert message in err, err
+        assert "choose a new folder, or pass --overwrite to replace it" in err
+        assert err.count("\n") == 1
+    assert {file: file.read_bytes() for file in out.rglob("*") if file.is_file()} == before
+
+
 def test_python_dash_m_runs_the_command():
     done = subprocess.run([sys.executable, "-m", "warehouse_phys.startkit", "--help"], cwd=ROOT,
                           capture_output=True, text=True)  # fmt: skip

@@ -228,6 +228,10 @@ def test_the_command_runs_the_entry_and_simulate_with_the_same_scheduler(tmp_pat
     for only in ("ours", "simulate"):  # simulate replays the delays of ours
         assert startkit.main([*argv, "--only", only]) == 0, capsys.readouterr().out
     assert "the entry's guided-ops-repair and assignment-capped" in capsys.readouterr().out
+    runs = json.loads((out / "summary.json").read_text())["runs"]
+    assert [run["name"] for run in runs] == ["ours", "simulate"]  # the summary keeps both
+    assert runs[0]["build"]
+    assert "build" not in runs[1]
     kit = read_output(out / "ours.json")
     ours = read_output(out / "simulate" / "lorr-output.json")
     assert kit.data["numTaskFinished"] > 0

@@ -26,11 +26,14 @@ with the delays of the first (``DIR/simulate/``), and writes ``DIR/summary.json`
 prints one table: tasks finished, the motions the kit's action model refused, planner and
 schedule errors, the checks that found the planner late and the ticks every robot waited
 for a late executor, wall and CPU time (each run's own process). ``--only`` runs one of
-the three. ``--planner``, ``--scheduler`` and ``--guidance`` (the planner's fields, a JSON
-object) set the entry's (by default what ``WAREHOUSE_PHYS_PLANNER``,
-``WAREHOUSE_PHYS_SCHEDULER`` and ``WAREHOUSE_PHYS_GUIDANCE`` say, else
-``guided-ops-repair``, ``assignment`` and ``{}``), and ``simulate`` runs the same ones
-(``assignment`` is its ``rematch``, ``assignment-capped`` its ``rematch-capped``). Exit
+the three, beside the runs of the same setting already in ``DIR`` (``--only ours``, then
+``--only simulate`` on its delays); a run already there is replaced only with
+``--overwrite``, and ``DIR`` never holds runs of two settings
+(:mod:`warehouse_phys.lorr.startkit.run_folder`). ``--planner``, ``--scheduler`` and
+``--guidance`` (the planner's fields, a JSON object) set the entry's (by default what
+``WAREHOUSE_PHYS_PLANNER``, ``WAREHOUSE_PHYS_SCHEDULER`` and ``WAREHOUSE_PHYS_GUIDANCE``
+say, else ``guided-ops-repair``, ``assignment`` and ``{}``), and ``simulate`` runs the same
+ones (``assignment`` is its ``rematch``, ``assignment-capped`` its ``rematch-capped``). Exit
 status: 0; 2 for a bad command line or instance; 1 when the kit cannot be built or run
 (one line saying what is missing, or where its log is).
 """
@@ -56,6 +59,7 @@ with command_interrupts(__name__ == "__main__"):
     from warehouse_phys.lorr.startkit.build import KitBuildError, NotAKitError, build_kit
     from warehouse_phys.lorr.startkit.install import InstallError, install
     from warehouse_phys.lorr.startkit.planner import entry_planner
+    from warehouse_phys.lorr.startkit.run_folder import SUMMARY, RunFolderRefused, prepare_folder
     from warehouse_phys.lorr.startkit.runs import RUNS, comparison_table, run_kit, run_simulate
     from warehouse_phys.lorr.startkit.scheduler import ENTRY_SCHEDULERS, FLEET_SCHEDULERS
     from warehouse_phys.planners.named import PLANNERS
@@ -89,7 +93,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--ticks", type=bounded_int(1, "a positive number of ticks"), required=True)
     run.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
-    run.add_argument("--only", choices=RUNS, help="run only this one")
+    run.add_argument("--only", choices=RUNS,
+                     help="run only this one, beside DIR's runs of the same setting")  # fmt: skip
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace an earlier run in DIR (with --only: that run alone, if the "
+                     "setting is the same)")  # fmt: skip
     run.add_argument("--jobs", type=bounded_int(1, "a positive number of jobs"), default=2,
                      help="make's jobs when the kit is built (default 2)")  # fmt: skip
     run.add_argument("--planner", choices=PLANNERS,
@@ -175,8 +183,14 @@ def _run(args: argparse.Namespace) -> int:
         raise UsageError(f"--kit {args.kit}: not a folder (give the start kit's source)")
     planner, scheduler, guidance = _entry(args)
     out = args.out
-    out.mkdir(parents=True, exist_ok=True)
     wanted = [args.only] if args.only else list(RUNS)
+    setting = {"instance": str(args.instance), "ticks": args.ticks, "kit": str(args.kit),
+               "planner": planner, "scheduler": scheduler, "guidance": guidance}  # fmt: skip
+    try:
+        kept = prepare_folder(out, wanted, setting, overwrite=args.overwrite)
+    except RunFolderRefused as error:
+        raise UsageError(str(error)) from None
+    out.mkdir(parents=True, exist_ok=True)
     load_before = os.getloadavg()
     results, build = [], None
     if {"ours", "default"} & set(wanted):
@@ -198,14 +212,13 @@ def _run(args: argparse.Namespace) -> int:
                                     delays_from=source, planner=planner,
                                     scheduler=FLEET_SCHEDULERS[scheduler],
                                     guidance=guidance))  # fmt: skip
-    summary = {
-        "instance": str(args.instance), "robots": instance.team_size, "ticks": args.ticks,
-        "kit": str(args.kit), "build": None if build is None else str(build.folder),
-        "planner": planner, "scheduler": scheduler, "guidance": guidance,
-        "load_average": {"before": list(load_before), "after": list(os.getloadavg())},
-        "cpus": os.cpu_count(), "runs": [result.to_json() for result in results],
-    }  # fmt: skip
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    load = {"before": list(load_before), "after": list(os.getloadavg())}
+    runs = kept + [result.to_json() | {"load_average": load, "cpus": os.cpu_count()}
+                   | ({} if result.name == "simulate" else {"build": str(build.folder)})
+                   for result in results]  # fmt: skip
+    summary = {**setting, "robots": instance.team_size,
+               "runs": sorted(runs, key=lambda run: RUNS.index(run["name"]))}  # fmt: skip
+    atomic_write_text(out / SUMMARY, json.dumps(summary, indent=2) + "\n")
     print(
         f"{instance.name}, {instance.team_size:,} robots, {args.ticks:,} ticks, the entry's "
         f"{planner} and {scheduler} (load average {load_before[0]:.1f} before, "
