@@ -19,7 +19,7 @@ import pymunk
 import pymunk.batch
 
 from warehouse_phys.physics.config import PhysicsConfig
-from warehouse_phys.world.grid import Cell, WarehouseGrid
+from warehouse_phys.world.grid import WarehouseGrid
 
 #: Thickness of the static walls around the floor [cells]. A wall this thick
 #: cannot be crossed in one physics step (steps are shorter than the robot's radius).
@@ -69,7 +69,7 @@ def add_floor(
     """Add the walls around ``grid`` and its shelves to ``space``, with the floor's
     top-left corner at ``origin`` ``(x, y)`` [m]."""
     shapes = _wall_shapes(space.static_body, grid.rows, grid.cols, cell_size, origin)
-    shapes += _shelf_shapes(space.static_body, grid.shelves, cell_size, origin)
+    shapes += _shelf_shapes(space.static_body, grid.shelf_mask, cell_size, origin)
     space.add(*shapes)
 
 
@@ -417,32 +417,28 @@ def _box(
 
 def _shelf_shapes(
     static_body: pymunk.Body,
-    shelves: frozenset[Cell],
+    shelf_mask: np.ndarray,
     cell_size: float,
     origin: tuple[float, float],
 ) -> list[pymunk.Poly]:
-    """One static box per horizontal run of shelf cells, each filling its cells exactly.
+    """One static box per horizontal run of shelf cells (``shelf_mask``, ``(rows, cols)``
+    bool), in reading order, each filling its cells exactly.
 
     A robot moving towards a shelf meets its edge half a cell from its own
     centre, exactly as it meets a wall. Merging runs keeps the number of
     shapes, hence the cost of building a world at every reset, small.
     """
-    runs: list[list[int]] = []  # [row, first column, last column]
-    for row, col in sorted(shelves):
-        if runs and runs[-1][0] == row and runs[-1][2] == col - 1:
-            runs[-1][2] = col
-        else:
-            runs.append([row, col, col])
+    # The runs found on the mask rather than cell by cell: a third of the time a big
+    # floor took (warehouse-large's 31,414 shelf cells, 10,448 runs), in every space.
+    edges = np.diff(shelf_mask.astype(np.int8), axis=1, prepend=0, append=0)
+    rows, firsts = np.nonzero(edges == 1)  # row-major: the runs in reading order
+    ends = np.nonzero(edges == -1)[1]  # the column after each run's last
     size, (x0, y0) = cell_size, origin
     return [
         _box(
-            static_body,
-            x0 + first * size,
-            y0 + row * size,
-            x0 + (last + 1) * size,
-            y0 + (row + 1) * size,
+            static_body, x0 + first * size, y0 + row * size, x0 + end * size, y0 + (row + 1) * size
         )
-        for row, first, last in runs
+        for row, first, end in zip(rows.tolist(), firsts.tolist(), ends.tolist(), strict=True)
     ]
 
 

@@ -186,10 +186,9 @@ def checked_floors(
 def padded_free_cells(grid: WarehouseGrid) -> np.ndarray:
     """Whether a robot may stand on each cell, flat, with a border of False all round:
     ``(rows + 2) * (cols + 2)`` bools, cell ``(row, col)`` at ``(row + 1) (cols + 2) + col + 1``."""
-    free = np.zeros((grid.rows + 2) * (grid.cols + 2), dtype=bool)
-    for row, col in grid.reachable:
-        free[(row + 1) * (grid.cols + 2) + col + 1] = True
-    return free
+    free = np.zeros((grid.rows + 2, grid.cols + 2), dtype=bool)
+    free[1:-1, 1:-1] = grid.reachable_mask  # (not cell by cell: 70,000 on warehouse-large)
+    return free.ravel()
 
 
 def floor_origins(grid: WarehouseGrid, size: float, n_floors: int) -> np.ndarray:

@@ -29,6 +29,7 @@ import numpy as np
 
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
 from warehouse_phys.world.headings import TurnAction, facing_move, turn_towards
+from warehouse_phys.world.layout_text import label_regions
 from warehouse_phys.world.traffic import WAIT, neighbour_table
 
 #: A fleet policy: the environment, every live robot's observation and last info -> actions.
@@ -227,16 +228,10 @@ def evaluate_fleet(
 def walled_off_packages(env: WarehouseFleetEnv) -> int:
     """Robots on the floor, not parked, whose package no path reaches round the parked
     robots: no policy can deliver them any more."""
-    from scipy.ndimage import label  # imported here: only evaluations need it
-
-    grid = env.grid
-    free = np.ones((grid.rows, grid.cols), dtype=bool)
-    if grid.shelves:
-        shelves = np.array(sorted(grid.shelves))
-        free[shelves[:, 0], shelves[:, 1]] = False
+    free = env.grid.free_mask.copy()
     parked = env.robot_cells[env.parked]
     free[parked[:, 0], parked[:, 1]] = False
-    regions, _ = label(free)  # 4-connected regions of the floor left free
+    regions, _ = label_regions(free)  # 4-connected regions of the floor left free
     waiting = env.on_floor & ~env.parked
     cells, packages = env.robot_cells[waiting], env.package_cells[waiting]
     return int((regions[cells[:, 0], cells[:, 1]] != regions[packages[:, 0], packages[:, 1]]).sum())

@@ -43,6 +43,7 @@ from warehouse_phys.world.layout_text import (
     cell_list,
     check_size,
     checked_layout,
+    label_regions,
     package_cells,
     unmarked_start,
 )
@@ -152,13 +153,11 @@ class WarehouseGrid:
                 first start cannot reach, ``P`` cells the robot cannot reach, or no cell at
                 all for a package.
         """
-        from scipy.ndimage import label  # imported here: an empty floor needs no regions
-
         rows, symbols = checked_layout(layout)
         width = len(rows[0])
         free = symbols != ord(SHELF)
         # Regions of free cells connected by moves (4-connected), numbered in reading order.
-        regions, count = label(free)
+        regions, count = label_regions(free)
         marked = np.flatnonzero(symbols == ord(START))
         if marked.size:
             start = Cell(*divmod(int(marked[0]), width))
