@@ -95,9 +95,10 @@ def test_a_folder_never_holds_runs_of_two_settings(tmp_path, field):
     assert list(tmp_path.iterdir()) == []  # the other setting's run is gone
 
 
-def test_an_earlier_run_without_its_summary_is_not_joined(tmp_path):
+@pytest.mark.parametrize("summary", ["{not json", "[]", '{"runs": [{"name": "kit"}]}'])
+def test_an_earlier_run_without_its_summary_is_not_joined(tmp_path, summary):
     earlier_run(tmp_path, names=("ours",))
-    (tmp_path / SUMMARY).write_text("{not json")
+    (tmp_path / SUMMARY).write_text(summary)
     with pytest.raises(RunFolderRefused, match=r"an earlier run without its summary\.json"):
         prepare_folder(tmp_path, ["simulate"], SETTING, overwrite=False)
     assert prepare_folder(tmp_path, ["simulate"], SETTING, overwrite=True) == []

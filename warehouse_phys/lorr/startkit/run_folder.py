@@ -114,7 +114,9 @@ def _summary(path: Path) -> dict[str, Any] | None:
     except (OSError, ValueError):
         return None
     runs = summary.get("runs") if isinstance(summary, dict) else None
-    if not isinstance(runs, list) or not all(isinstance(run, dict) for run in runs):
+    if not isinstance(runs, list) or not all(
+        isinstance(run, dict) and run.get("name") in RUNS for run in runs
+    ):
         return None
     return summary
 
