@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from warehouse_phys.world.grid import WarehouseGrid
+from warehouse_phys.world.layout_text import label_regions
 
 #: The distance of a cell that cannot reach the goal, and of a shelf cell [moves].
 UNREACHABLE = 65535
@@ -127,15 +128,13 @@ class DistanceMaps:
 
     def _build_search(self, free: np.ndarray, free_cells: np.ndarray) -> None:
         """The move graph, the regions and the guide paths' storage (a few bytes a cell)."""
-        from scipy import ndimage  # 0.3 s to import: loaded, as Numba, for shelved floors only
-
         from warehouse_phys.planners import graph_search  # Numba: loaded only for shelved floors
 
         self._search = graph_search
         self._graph = graph_search.move_graph(free)
         cell_row, cell_col = np.divmod(free_cells, self.grid.cols)
         self._cell_row, self._cell_col = cell_row.astype(np.int32), cell_col.astype(np.int32)
-        labels, _ = ndimage.label(free)  # regions connected by moves (4-connectivity)
+        labels, _ = label_regions(free)  # regions connected by moves (4-connectivity)
         self._region = labels.reshape(-1)[free_cells].astype(np.int32)
         self._scratch = np.zeros((self._n_free, 4), dtype=np.int32)
         self._generation = 0
