@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from warehouse_phys.world.floor_regions import label_regions
 from warehouse_phys.world.grid import WarehouseGrid
-from warehouse_phys.world.layout_text import label_regions
 
 #: The distance of a cell that cannot reach the goal, and of a shelf cell [moves].
 UNREACHABLE = 65535

@@ -28,8 +28,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from warehouse_phys.envs.fleet import WarehouseFleetEnv
+from warehouse_phys.world.floor_regions import label_regions
 from warehouse_phys.world.headings import TurnAction, facing_move, turn_towards
-from warehouse_phys.world.layout_text import label_regions
 from warehouse_phys.world.traffic import WAIT, neighbour_table
 
 #: A fleet policy: the environment, every live robot's observation and last info -> actions.

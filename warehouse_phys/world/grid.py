@@ -31,6 +31,7 @@ from warehouse_phys.world.cells import Cell, CellSequence, CellSet, read_only
 
 # A floor drawn as text and the size limits live in layout_text; re-exported here, where
 # they lived first (see __all__).
+from warehouse_phys.world.floor_regions import label_regions
 from warehouse_phys.world.layout_text import (
     FLOOR,
     LAYOUT_SYMBOLS,
@@ -43,7 +44,6 @@ from warehouse_phys.world.layout_text import (
     cell_list,
     check_size,
     checked_layout,
-    label_regions,
     package_cells,
     unmarked_start,
 )
