@@ -28,10 +28,10 @@ from typing import Any
 import numpy as np
 
 from warehouse_phys.world.cells import Cell, CellSequence, CellSet, read_only
+from warehouse_phys.world.floor_regions import label_regions
 
 # A floor drawn as text and the size limits live in layout_text; re-exported here, where
 # they lived first (see __all__).
-from warehouse_phys.world.floor_regions import label_regions
 from warehouse_phys.world.layout_text import (
     FLOOR,
     LAYOUT_SYMBOLS,
