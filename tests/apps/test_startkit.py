@@ -111,6 +111,38 @@ def test_a_folder_holding_an_earlier_run_is_refused_in_one_line_before_anything_
     assert {file: file.read_bytes() for file in out.rglob("*") if file.is_file()} == before
 
 
+def test_a_folder_another_command_holds_is_refused_and_one_it_made_goes_if_left_empty(
+    tmp_path, capsys
+):
+    import os
+
+    from tests.lorr.tiny_kit_instance import tiny_instance
+    from warehouse_phys.files.runfolder import lock_folder
+    from warehouse_phys.lorr.instances import write_instance
+
+    path = write_instance(tiny_instance(), tmp_path / "tiny.json")
+    held = tmp_path / "held"
+    held.mkdir()
+    argv = ["run", str(path), "--kit", str(tmp_path), "--ticks", "5", "--only", "ours"]
+    handle = lock_folder(held)  # another command's, for as long as it runs
+    try:
+        assert startkit.main([*argv, "--out", str(held)]) == 2
+        err = capsys.readouterr().err
+        assert f"{held} is in use by another run" in err, err
+        assert err.count("\n") == 1
+        assert held.is_dir()
+        assert not any(held.iterdir())
+    finally:
+        os.close(handle)
+    # The lock is the command's alone while it runs: here the kit (tmp_path, not a kit)
+    # cannot be built, and the folder the command made is gone with the lock.
+    new = tmp_path / "new" / "out"
+    assert startkit.main([*argv, "--out", str(new)]) == 2
+    assert "not a start kit" in capsys.readouterr().err
+    assert not (tmp_path / "new").exists()
+    lock_folder(held)  # released: another command may take it now
+
+
 def test_python_dash_m_runs_the_command():
     done = subprocess.run([sys.executable, "-m", "warehouse_phys.startkit", "--help"], cwd=ROOT,
                           capture_output=True, text=True)  # fmt: skip

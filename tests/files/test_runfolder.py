@@ -7,6 +7,7 @@ from warehouse_phys.files.runfolder import (
     RunFolder,
     RunFolderError,
     RunWriteError,
+    lock_folder,
     make_folders,
     remove_empty,
 )
@@ -21,6 +22,24 @@ def test_a_new_folder_is_created_locked_and_released(tmp_path):
         with pytest.raises(RunFolderError, match="is in use by another run"):
             RunFolder(folder.path, FILES, overwrite=True).open()
     RunFolder(folder.path, FILES).open().close()  # released: usable again
+
+
+def test_lock_folder_is_the_run_folders_lock_and_closing_releases_it(tmp_path):
+    import os
+
+    handle = lock_folder(tmp_path)
+    with pytest.raises(RunFolderError, match="is in use by another run"):
+        RunFolder(tmp_path, FILES).open()
+    with pytest.raises(RunFolderError, match="is in use by another run"):
+        lock_folder(tmp_path)
+    os.close(handle)
+    with RunFolder(tmp_path, FILES), pytest.raises(RunFolderError, match="is in use"):
+        lock_folder(tmp_path)
+    os.close(lock_folder(tmp_path))
+    (tmp_path / "table.npz").write_bytes(b"")
+    for path in (tmp_path / "missing", tmp_path / "table.npz"):  # no folder, a file
+        with pytest.raises(RunWriteError, match=f"cannot write {path}"):
+            lock_folder(path)
 
 
 def test_a_new_folder_must_not_exist(tmp_path):

@@ -29,7 +29,9 @@ for a late executor, wall and CPU time (each run's own process). ``--only`` runs
 the three, beside the runs of the same setting already in ``DIR`` (``--only ours``, then
 ``--only simulate`` on its delays); a run already there is replaced only with
 ``--overwrite``, and ``DIR`` never holds runs of two settings
-(:mod:`warehouse_phys.lorr.startkit.run_folder`). ``--planner``, ``--scheduler`` and
+(:mod:`warehouse_phys.lorr.startkit.run_folder`); ``DIR`` is locked while the command runs
+(:func:`~warehouse_phys.files.runfolder.lock_folder`), so a second command into it is
+refused at once. ``--planner``, ``--scheduler`` and
 ``--guidance`` (the planner's fields, a JSON object) set the entry's (by default what
 ``WAREHOUSE_PHYS_PLANNER``, ``WAREHOUSE_PHYS_SCHEDULER`` and ``WAREHOUSE_PHYS_GUIDANCE``
 say, else ``guided-ops-repair``, ``assignment`` and ``{}``), and ``simulate`` runs the same
@@ -54,7 +56,14 @@ with command_interrupts(__name__ == "__main__"):
 
     from warehouse_phys.apps.cli import ArgumentParser, UsageError, bounded_int, guidance_fields
     from warehouse_phys.files.atomic import atomic_write_text
-    from warehouse_phys.lorr.instances import read_instance
+    from warehouse_phys.files.runfolder import (
+        RunFolderError,
+        RunWriteError,
+        lock_folder,
+        make_folders,
+        remove_empty,
+    )
+    from warehouse_phys.lorr.instances import LorrInstance, read_instance
     from warehouse_phys.lorr.startkit.adapters import entry_guidance, setting
     from warehouse_phys.lorr.startkit.build import KitBuildError, NotAKitError, build_kit
     from warehouse_phys.lorr.startkit.install import InstallError, install
@@ -151,10 +160,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"the start kit is built: {built.lifelong}")
             return 0
         return _run(args)
-    except (UsageError, NotAKitError) as error:
+    except (UsageError, NotAKitError, RunFolderError) as error:
         print(f"{PROG}: error: {error}", file=sys.stderr)
         return 2
-    except (KitBuildError, OSError) as error:
+    except (KitBuildError, OSError, RunWriteError) as error:
         print(f"{PROG}: error: {str(error).splitlines()[0]}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
@@ -186,11 +195,38 @@ def _run(args: argparse.Namespace) -> int:
     wanted = [args.only] if args.only else list(RUNS)
     setting = {"instance": str(args.instance), "ticks": args.ticks, "kit": str(args.kit),
                "planner": planner, "scheduler": scheduler, "guidance": guidance}  # fmt: skip
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out}: not a folder")
+    # The folder is locked for the whole command, as a training run's is, so that two
+    # commands never write into one folder at once; made here, it goes again if the
+    # command ends with it empty.
+    created = make_folders(out, exist_ok=True)
     try:
-        kept = prepare_folder(out, wanted, setting, overwrite=args.overwrite)
-    except RunFolderRefused as error:
-        raise UsageError(str(error)) from None
-    out.mkdir(parents=True, exist_ok=True)
+        handle = lock_folder(out)
+        try:
+            try:
+                kept = prepare_folder(out, wanted, setting, overwrite=args.overwrite)
+            except RunFolderRefused as error:
+                raise UsageError(str(error)) from None
+            return _run_locked(args, instance, setting, kept)
+        finally:
+            os.close(handle)  # releases the lock
+    except BaseException:
+        remove_empty(created)
+        raise
+
+
+def _run_locked(
+    args: argparse.Namespace,
+    instance: LorrInstance,
+    setting: dict[str, Any],
+    kept: list[dict[str, Any]],
+) -> int:
+    """The runs of ``_run`` of ``setting`` into ``args.out``, locked and prepared;
+    ``kept``: the earlier runs' summary entries that stay beside them."""
+    out = args.out
+    wanted = [args.only] if args.only else list(RUNS)
+    planner, scheduler, guidance = setting["planner"], setting["scheduler"], setting["guidance"]
     load_before = os.getloadavg()
     results, build = [], None
     if {"ours", "default"} & set(wanted):

@@ -92,6 +92,29 @@ class RunWriteError(Exception):
     """A file of the run could not be written; the message names it and says why."""
 
 
+def lock_folder(path: Path) -> int:
+    """Lock the folder ``path`` for this process alone (an exclusive ``flock``, not
+    waited for); returns the open folder's descriptor: closing it releases the lock, as
+    the end of the process does, however it ends.
+
+    Raises:
+        RunFolderError: if another run holds the folder.
+        RunWriteError: if the folder cannot be opened (missing, not a folder).
+    """
+    try:
+        handle = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError as error:
+        raise _write_error(path, error) from None
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as error:
+        os.close(handle)
+        if error.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
+            raise RunFolderError(f"{path} is in use by another run") from None
+        raise _write_error(path, error) from None
+    return handle
+
+
 class RunFolder:
     """The folder of one run, locked for it from :meth:`open` to :meth:`close`.
 
@@ -143,18 +166,11 @@ class RunFolder:
         try:
             if self.new or not path.exists():
                 self._created = make_folders(path, exist_ok=not self.new)
-            self._handle = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
         except FileExistsError:
             raise RunFolderError(f"{path} was created by another run just now") from None
         except OSError as error:
             raise _write_error(path, error) from None
-        try:
-            fcntl.flock(self._handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as error:
-            self._release()
-            if error.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
-                raise RunFolderError(f"{path} is in use by another run") from None
-            raise _write_error(path, error) from None
+        self._handle = lock_folder(path)
         try:
             self._clean()
             self._prove_writable()

@@ -20,7 +20,9 @@ instance, ticks, kit, planner, scheduler and the planner's fields). The policy, 
   ``overwrite``, emptied of it first.
 
 So a folder never holds the runs of two settings, a file is replaced only when asked, and
-a summary lists every run in its folder.
+a summary lists every run in its folder. The command holds the folder's lock
+(:func:`~warehouse_phys.files.runfolder.lock_folder`) from before this check to its end,
+so no other command writes into it meanwhile.
 """
 
 from __future__ import annotations
