@@ -3,10 +3,15 @@ finish if robots never met.
 
 :func:`congestion_free_flow` plays an instance's errand list
 (:func:`~warehouse_phys.lorr.errands.errand_list`, its scheduler included) with robots
-that drive each errand's Manhattan distance, one cell a step, in a straight line through
-each other: no shelves in the way, no turns, no waiting. A robot finishes an errand on
-the step it arrives, and sets off for its next one on the step after, as the fleet
-counts (one errand a step at most). So it separates what the task list and the scheduler
+that drive a Manhattan path to their errand, one cell a step (along its row first),
+through each other: no shelves in the way, no turns, no waiting. A robot finishes an
+errand on the step it arrives, and sets off for its next one on the step after, as the
+fleet counts (one errand a step at most). The errand list sees where each robot stands
+every step, so a rematching scheduler
+(:class:`~warehouse_phys.lorr.scheduling_assignment.AssignmentScheduler`, the default)
+may pair a robot on its way with another task, as it does the fleet's robots: the robot
+turns to its new errand from where it stands (or stops, left without a task). So it
+separates what the task list and the scheduler
 allow from what planning loses to traffic: a planner's figure beside it says how much of
 the flow the traffic took. It is a model, not a bound: on a floor with shelves a path is
 longer than the Manhattan distance, turning robots turn, and a real fleet's robots come
@@ -38,7 +43,7 @@ class TaskFlow:
     errands_done: np.ndarray
     #: Tasks finished by the end of each step, ``(steps,)``.
     tasks_done: np.ndarray
-    #: Cells driven (Manhattan) over the run: to errands finished or still under way.
+    #: Cells driven over the run (one a robot a step, towards its errand).
     moves: int
 
     @property
@@ -67,41 +72,24 @@ def congestion_free_flow(
     cols = instance.grid.cols
     here = np.asarray(instance.starts[: instance.team_size], dtype=np.int64).copy()
     errands.reset(here)
-    goal = errands.goals.copy()
-    never = np.iinfo(np.int64).max
-    arrival = np.full(len(here), never, dtype=np.int64)
-    moves = _set_off(arrival, here, goal, 0, cols)
+    moves = 0
     errands_done = np.empty(steps, dtype=np.int64)
     tasks_done = np.empty(steps, dtype=np.int64)
     for step in range(1, steps + 1):
-        arrived = np.flatnonzero(arrival == step)
-        here[arrived] = goal[arrived]
-        arrival[arrived] = never
-        errands.step(arrived, here)
-        new = errands.goals
-        # Robots with a new errand (the arrived, and free robots given a task) set off.
-        fresh = (new != NO_ERRAND) & (arrival == never)
-        goal[fresh] = new[fresh]
-        moves += _set_off(arrival, here, goal, step, cols, fresh)
+        # Every robot with an errand drives one cell towards it (its row first), from
+        # where it stands: a robot the scheduler paired again on the way turns to its new
+        # errand from there, and a robot left without a task stops.
+        going = np.flatnonzero(errands.goals != NO_ERRAND)
+        goal = errands.goals[going]
+        rows, columns = np.divmod(here[going], cols)
+        to_rows, to_columns = np.divmod(goal, cols)
+        d_row = np.sign(to_rows - rows)
+        d_col = np.where(d_row == 0, np.sign(to_columns - columns), 0)
+        moved = (d_row != 0) | (d_col != 0)
+        here[going] += d_row * cols + d_col
+        moves += int(np.count_nonzero(moved))
+        # On its errand at the end of the step: finished (one errand a step at most).
+        errands.step(going[here[going] == goal], here)
         errands_done[step - 1] = errands.errands_done
         tasks_done[step - 1] = errands.tasks_done
     return TaskFlow(steps, errands_done, tasks_done, moves)
-
-
-def _set_off(
-    arrival: np.ndarray,
-    here: np.ndarray,
-    goal: np.ndarray,
-    now: int,
-    cols: int,
-    robots: np.ndarray | None = None,
-) -> int:
-    """Robots (all with an errand by default) leave ``here`` for ``goal`` after step
-    ``now``; each arrives its Manhattan distance later, one step at the soonest (one
-    errand a step). Returns the cells they drive."""
-    chosen = (goal != NO_ERRAND) if robots is None else robots & (goal != NO_ERRAND)
-    rows, columns = np.divmod(here[chosen], cols)
-    to_rows, to_columns = np.divmod(goal[chosen], cols)
-    distance = np.abs(rows - to_rows) + np.abs(columns - to_columns)
-    arrival[chosen] = now + np.maximum(distance, 1)
-    return int(distance.sum())
