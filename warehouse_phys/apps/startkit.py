@@ -208,7 +208,7 @@ def _run(args: argparse.Namespace) -> int:
                 kept = prepare_folder(out, wanted, setting, overwrite=args.overwrite)
             except RunFolderRefused as error:
                 raise UsageError(str(error)) from None
-            return _run_locked(args, instance, setting, kept)
+            return _run_locked(args, instance, wanted, setting, kept)
         finally:
             os.close(handle)  # releases the lock
     except BaseException:
@@ -219,13 +219,13 @@ def _run(args: argparse.Namespace) -> int:
 def _run_locked(
     args: argparse.Namespace,
     instance: LorrInstance,
+    wanted: list[str],
     setting: dict[str, Any],
     kept: list[dict[str, Any]],
 ) -> int:
-    """The runs of ``_run`` of ``setting`` into ``args.out``, locked and prepared;
-    ``kept``: the earlier runs' summary entries that stay beside them."""
+    """The runs ``wanted`` of ``_run``, of ``setting``, into ``args.out``, locked and
+    prepared; ``kept``: the earlier runs' summary entries that stay beside them."""
     out = args.out
-    wanted = [args.only] if args.only else list(RUNS)
     planner, scheduler, guidance = setting["planner"], setting["scheduler"], setting["guidance"]
     load_before = os.getloadavg()
     results, build = [], None
