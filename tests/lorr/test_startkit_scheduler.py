@@ -2,14 +2,17 @@
 robots on their way to a task not opened are paired again, and a task held for a robot
 about to be free is proposed for it once the kit frees it."""
 
+from unittest import mock
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from warehouse_phys.lorr import station_cap
 from warehouse_phys.lorr.rematching import KEEP_WITHIN
 from warehouse_phys.lorr.startkit.scheduler import EntryScheduler, OpenTasks
-from warehouse_phys.lorr.station_cap import STATION_CAP
+from warehouse_phys.lorr.station_cap import STATION_CAP, stop_caps
 
 COLS = 10
 
@@ -142,6 +145,23 @@ def test_the_capped_assignment_sends_no_more_than_the_cap_to_one_station():
         capped.schedule(current, np.full(10, station), pool)
 
 
+def test_the_backlog_assignment_sends_more_to_a_station_with_more_open_tasks():
+    # Twelve tasks at station 55 and four at station 0: the mean station has eight, so
+    # 55's cap is 12 and 0's is 8. Twenty free robots: the fixed cap sends 8 to 55 and
+    # 4 to 0; following the backlog, 12 to 55.
+    grid = _open_floor()
+    pool = tasks(list(range(16)), [55] * 12 + [0] * 4, [-1] * 16)
+    free, cells = np.full(20, -1), np.full(20, 54)
+    taken = {}
+    for name in ("assignment-capped", "assignment-backlog"):
+        scheduler = EntryScheduler(COLS, name, grid)
+        proposal = scheduler.schedule(free, cells, pool, unopened=np.zeros(20, bool))
+        taken[name] = np.bincount(np.asarray(pool.next_stop)[proposal[proposal >= 0]])[[55, 0]]
+    assert taken["assignment-capped"].tolist() == [STATION_CAP, 4]
+    assert taken["assignment-backlog"].tolist() == [12, 4]
+    assert EntryScheduler(COLS, "assignment-backlog", grid).scheduler.cap_follows_backlog
+
+
 def test_a_robot_paired_again_at_a_full_station_keeps_its_task_on_offer():
     grid, station = _open_floor(), 99
     # Robot 0, far from station 99, is on its way to task 0 there with seven others (the
@@ -158,9 +178,10 @@ def test_a_robot_paired_again_at_a_full_station_keeps_its_task_on_offer():
     assert proposal.tolist() == [9, 1, 2, 3, 4, 5, 6, 7, 0]
 
 
+@pytest.mark.parametrize("name", ["assignment-capped", "assignment-backlog"])
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**32 - 1))
-def test_the_capped_assignment_never_fills_a_station_past_the_cap(seed):
+def test_the_capped_assignment_never_fills_a_station_past_the_cap(name, seed):
     # Few stations, many robots: the cap binds. Robots on their way to a first stop at
     # each station (tasks not opened, tasks held for robots about to be free and proposed
     # to them once free) after each of two rounds: never above the cap unless they were
@@ -176,7 +197,7 @@ def test_the_capped_assignment_never_fills_a_station_past_the_cap(seed):
             current[robot], holder[slot] = ids[slot], robot
     stops = rng.choice(stations, k)
     pool = tasks(ids, stops, holder, rng.integers(0, 30, k))
-    scheduler = EntryScheduler(COLS, "assignment-capped", grid)
+    scheduler = EntryScheduler(COLS, name, grid)
     busy = current >= 0
     opened = busy & (rng.random(n) < 0.3)
     finishing = opened & (rng.random(n) < 0.5)
@@ -188,13 +209,23 @@ def test_the_capped_assignment_never_fills_a_station_past_the_cap(seed):
         return {s: counted.count(s) for s in stations.tolist()}
 
     before = loads(current[unopened])
+    # Each station's cap: fixed, or the largest the backlog gave it in a round so far.
+    caps = dict.fromkeys(stations.tolist(), STATION_CAP)
+
+    def recording(stops, cap):
+        result = stop_caps(stops, cap)
+        for stop, its_cap in zip(np.asarray(stops).tolist(), result.tolist(), strict=True):
+            caps[stop] = max(caps[stop], its_cap)
+        return result
+
     for _ in range(2):  # the second round: the kit took the proposal, the holds stand
-        proposal = scheduler.schedule(current, rng.integers(0, COLS * COLS, n), pool,
-                                      finishing, unopened)  # fmt: skip
+        with mock.patch.object(station_cap, "stop_caps", recording):
+            proposal = scheduler.schedule(current, rng.integers(0, COLS * COLS, n), pool,
+                                          finishing, unopened)  # fmt: skip
         held = scheduler.held[scheduler.held >= 0]
         after = loads(np.concatenate([proposal[(proposal >= 0) & ~opened], held]))
         for station in stations.tolist():
-            assert after[station] <= max(STATION_CAP, before[station])
+            assert after[station] <= max(caps[station], before[station])
         given_out = np.concatenate([proposal[proposal >= 0], held])
         assert len(set(given_out.tolist())) == len(given_out)  # no task twice
         assert (proposal[opened] == current[opened]).all()  # an opened task stays

@@ -35,7 +35,8 @@ refused at once. ``--planner``, ``--scheduler`` and
 ``--guidance`` (the planner's fields, a JSON object) set the entry's (by default what
 ``WAREHOUSE_PHYS_PLANNER``, ``WAREHOUSE_PHYS_SCHEDULER`` and ``WAREHOUSE_PHYS_GUIDANCE``
 say, else ``guided-ops-repair``, ``assignment`` and ``{}``), and ``simulate`` runs the same
-ones (``assignment`` is its ``rematch``, ``assignment-capped`` its ``rematch-capped``). Exit
+ones (``assignment`` is its ``rematch``, ``assignment-capped`` its ``rematch-capped``,
+``assignment-backlog`` its ``rematch-backlog``). Exit
 status: 0; 2 for a bad command line or instance; 1 when the kit cannot be built or run
 (one line saying what is missing, or where its log is).
 """
@@ -115,7 +116,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--scheduler", choices=ENTRY_SCHEDULERS,
                      help="the entry's scheduler, and simulate's (default: "
                      "WAREHOUSE_PHYS_SCHEDULER, else assignment; assignment-capped sends at "
-                     "most 8 robots to one station)")  # fmt: skip
+                     "most 8 robots to one station; assignment-backlog more to a station "
+                     "with more open tasks than the mean)")  # fmt: skip
     run.add_argument("--guidance", type=guidance_fields, metavar="JSON",
                      help="the entry's planner's fields, and simulate's, a JSON object such as "
                      "'{\"reroute\": 32}' (default: WAREHOUSE_PHYS_GUIDANCE, else {})")  # fmt: skip

@@ -276,8 +276,10 @@ class ScheduledTasks(ErrandList):
             # Robots paired again count as on their way, and their own tasks stay offered:
             # each may keep its task without taking another robot's room.
             going = np.flatnonzero((self._slot >= 0) & (self.progress == 0))
-            offered = offered_within_cap(firsts, self.goals[np.concatenate([going, again])],
-                                         cap, held=np.isin(slots, their_slots))  # fmt: skip
+            offered = offered_within_cap(
+                firsts, self.goals[np.concatenate([going, again])], cap,
+                held=np.isin(slots, their_slots),
+                backlog=getattr(self.scheduler, "cap_follows_backlog", False))  # fmt: skip
             slots, lines, firsts = slots[offered], lines[offered], firsts[offered]
         if not free.size or not slots.size:
             if again.size:

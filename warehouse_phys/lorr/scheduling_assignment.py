@@ -79,10 +79,14 @@ class AssignmentScheduler:
             :mod:`warehouse_phys.lorr.station_cap`); None (default): no cap.
             ``"rematch-capped"`` by name rematches with a cap of
             :data:`~warehouse_phys.lorr.station_cap.STATION_CAP`.
+        cap_follows_backlog: Let each first stop's cap grow with its open tasks
+            (:attr:`cap_follows_backlog`, :func:`~warehouse_phys.lorr.station_cap.stop_caps`):
+            ``"rematch-backlog"`` by name, with a ``station_cap`` of
+            :data:`~warehouse_phys.lorr.station_cap.STATION_CAP`.
 
     Raises:
-        ValueError: for a weight below 0 or not finite, no candidates, or a
-            ``station_cap`` below 1.
+        ValueError: for a weight below 0 or not finite, no candidates, a
+            ``station_cap`` below 1, or ``cap_follows_backlog`` without a ``station_cap``.
     """
 
     def __init__(
@@ -94,6 +98,7 @@ class AssignmentScheduler:
         distances: DistanceMaps | None = None,
         rematch: bool = False,
         station_cap: int | None = None,
+        cap_follows_backlog: bool = False,
     ) -> None:
         if not 0 <= length_weight <= MAX_LENGTH_WEIGHT or candidates < 1:
             raise ValueError(f"length_weight must be 0 to {MAX_LENGTH_WEIGHT:g} and candidates "
@@ -109,9 +114,14 @@ class AssignmentScheduler:
         #: The most robots on their way to one first stop that the errand list lets the
         #: pairing make (None: no cap).
         self.station_cap = None if station_cap is None else check_cap(station_cap)
+        if cap_follows_backlog and self.station_cap is None:
+            raise ValueError("cap_follows_backlog needs a station_cap")
+        #: Whether each first stop's cap grows with its open tasks
+        #: (:func:`~warehouse_phys.lorr.station_cap.stop_caps`).
+        self.cap_follows_backlog = bool(cap_follows_backlog)
         self.__name__ = "rematch" if self.rematch else "assignment"
         if self.station_cap is not None:
-            self.__name__ += "-capped"
+            self.__name__ += "-backlog" if self.cap_follows_backlog else "-capped"
 
     def __call__(
         self,
@@ -194,24 +204,27 @@ def default_scheduler(grid: WarehouseGrid) -> AssignmentScheduler:
 #: ``"rematch"`` (the same, rematching: :attr:`AssignmentScheduler.rematch`) and
 #: ``"rematch-capped"`` (rematching, at most
 #: :data:`~warehouse_phys.lorr.station_cap.STATION_CAP` robots on their way to one first
-#: stop: :attr:`AssignmentScheduler.station_cap`).
-SCHEDULER_NAMES = (*SCHEDULERS, "assignment", "rematch", "rematch-capped")
+#: stop: :attr:`AssignmentScheduler.station_cap`) and ``"rematch-backlog"`` (the same cap,
+#: growing at a stop with more open tasks than the mean stop:
+#: :attr:`AssignmentScheduler.cap_follows_backlog`).
+SCHEDULER_NAMES = (*SCHEDULERS, "assignment", "rematch", "rematch-capped", "rematch-backlog")
 
 
 def scheduler_for(name: str, grid: WarehouseGrid) -> Scheduler:
     """The scheduler called ``name`` (of :data:`SCHEDULER_NAMES`; ``assignment=W``,
-    ``rematch=W`` and ``rematch-capped=W`` take ``length_weight`` W) for a fleet on
-    ``grid``.
+    ``rematch=W``, ``rematch-capped=W`` and ``rematch-backlog=W`` take ``length_weight``
+    W) for a fleet on ``grid``.
 
     Raises:
         ValueError: naming the known schedulers, for another name.
     """
     kind, equals, weight = name.partition("=")
-    if kind in ("assignment", "rematch", "rematch-capped"):
+    if kind in ("assignment", "rematch", "rematch-capped", "rematch-backlog"):
         try:
             weighed = {"length_weight": float(weight)} if equals else {}
-            cap = STATION_CAP if kind == "rematch-capped" else None
+            cap = STATION_CAP if kind in ("rematch-capped", "rematch-backlog") else None
             return AssignmentScheduler(grid, rematch=kind != "assignment", station_cap=cap,
+                                       cap_follows_backlog=kind == "rematch-backlog",
                                        **weighed)  # fmt: skip
         except ValueError:
             raise ValueError(

@@ -82,8 +82,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="robot model (default rotate, LoRR's turning robots)")  # fmt: skip
     parser.add_argument("--scheduler", help="a 2024 instance's scheduler: nearest, makespan, "
                         "assignment[=W], rematch[=W] (the assignment, robots on their way "
-                        "to a task not opened paired again) or rematch-capped[=W] (the same, "
-                        f"at most {STATION_CAP} robots on their way to one station)")  # fmt: skip
+                        "to a task not opened paired again), rematch-capped[=W] (the same, "
+                        f"at most {STATION_CAP} robots on their way to one station) or "
+                        "rematch-backlog[=W] (that cap, grown at a station with more open "
+                        "tasks than the mean)")  # fmt: skip
     add_guidance_argument(parser)
     parser.add_argument("--out", type=Path, help="the suite's folder (evaluations/<time>)")
     parser.add_argument("--address", help="a Ray cluster's host:port (default: a local Ray)")

@@ -194,7 +194,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="which free robot takes which task, on a 2024 or later instance: rematch (a "
         "minimum-cost assignment on true distances, robots on their way to a task not "
         "opened yet paired again, default), rematch-capped (the same, at most "
-        f"{STATION_CAP} robots on their way to one station), assignment (the same without "
+        f"{STATION_CAP} robots on their way to one station), rematch-backlog (that cap, grown "
+        "at a station with more open tasks than the mean), assignment (the same without "
         "pairing again), "
         "nearest (the first stop nearest the robot) or makespan (the least distance to the "
         "first stop plus the task's own length, as the competition's default entry)",

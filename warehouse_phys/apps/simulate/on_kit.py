@@ -11,7 +11,8 @@ executor's GO or STOP every tick before the tick's delays) with the entry's plan
 entry, or any other planner by name), scheduler (``--scheduler``; by default, and as
 ``rematch``, the entry's: the minimum-cost assignment on true distances, pairing again
 the robots on their way to a task not opened yet; ``rematch-capped``: the same with a cap
-on each station's queue, the entry's ``assignment-capped``) and executor, robots
+on each station's queue, the entry's ``assignment-capped``; ``rematch-backlog``, that
+cap growing with a station's open tasks, the entry's ``assignment-backlog``) and executor, robots
 as squares of side ``agentSize`` (the kit's swept-square rule, checked every tick). It
 writes the kit's 2026 output file (:mod:`warehouse_phys.lorr.output_2026`) as
 ``lorr-output.json``.

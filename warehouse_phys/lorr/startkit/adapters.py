@@ -17,8 +17,8 @@ every 2026 example's; a larger value than the instance's is safe, only slower), 
 planner (``WAREHOUSE_PHYS_PLANNER``, ``guided-ops-repair``) and its fields
 (``WAREHOUSE_PHYS_GUIDANCE``, a JSON object such as ``{"reroute": 32}``; ``{}``, the
 entry's own: :func:`~warehouse_phys.lorr.startkit.planner.entry_planner`), and the scheduler
-(``WAREHOUSE_PHYS_SCHEDULER``, ``assignment``; ``assignment-capped``, ``makespan``,
-``nearest``). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
+(``WAREHOUSE_PHYS_SCHEDULER``, ``assignment``; ``assignment-capped``,
+``assignment-backlog``, ``makespan``, ``nearest``). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
 file, each call appends a line ``<call> <wall seconds> <CPU seconds of its thread>`` to
 it (the kit ends its process without Python's exit handlers, so nothing waits for the
 end).

@@ -41,7 +41,8 @@ warehouse_phys.lorr.startkit.adapters.{adapter} as the kit's {name}.
 {mark} (warehouse_phys {version}); it is
 # rewritten by the next install. Settings: WAREHOUSE_PHYS_AGENT_SIZE (the instance's
 # agentSize, default 1), WAREHOUSE_PHYS_PLANNER (guided-ops-repair),
-# WAREHOUSE_PHYS_SCHEDULER (assignment; assignment-capped, makespan, nearest),
+# WAREHOUSE_PHYS_SCHEDULER (assignment; assignment-capped,
+# assignment-backlog, makespan, nearest),
 # WAREHOUSE_PHYS_GUIDANCE (a JSON object of the planner's fields, {{}}).
 import site
 import sys

@@ -10,7 +10,9 @@ the way to are paired with them by one of :data:`ENTRY_SCHEDULERS`: ``"assignmen
 :class:`~warehouse_phys.lorr.scheduling_assignment.AssignmentScheduler`),
 ``"assignment-capped"`` (the same, offered no task whose first stop already has
 :data:`~warehouse_phys.lorr.station_cap.STATION_CAP` robots on their way: the fleet's
-``"rematch-capped"``, :mod:`warehouse_phys.lorr.station_cap`), ``"makespan"``
+``"rematch-capped"``, :mod:`warehouse_phys.lorr.station_cap`), ``"assignment-backlog"``
+(the same cap, growing at a stop with more open tasks than the mean stop: the fleet's
+``"rematch-backlog"``), ``"makespan"``
 (the least Manhattan distance to the first errand plus the task's own length, as the
 kit's default entry weighs them) or ``"nearest"``. Like :mod:`warehouse_phys.world.grid`, this
 module imports neither gymnasium, pymunk nor pygame.
@@ -35,12 +37,13 @@ from warehouse_phys.world.grid import WarehouseGrid
 
 #: The schedulers an entry may use, by name: the built-in greedy pairings, and the
 #: minimum-cost assignment on true distances (which needs the floor), without and with
-#: a cap on each station's queue.
-ENTRY_SCHEDULERS = (*SCHEDULERS, "assignment", "assignment-capped")
+#: a cap on each station's queue, fixed or following the station's backlog.
+ENTRY_SCHEDULERS = (*SCHEDULERS, "assignment", "assignment-capped", "assignment-backlog")
 #: The fleet's name (``simulate --scheduler``) of each entry scheduler, which ``simulate``
 #: plays by the kit's rules: the entry's assignments always pair again.
 FLEET_SCHEDULERS = {**{name: name for name in SCHEDULERS}, "assignment": "rematch",
-                    "assignment-capped": "rematch-capped"}  # fmt: skip
+                    "assignment-capped": "rematch-capped",
+                    "assignment-backlog": "rematch-backlog"}  # fmt: skip
 
 
 class OpenTasks(NamedTuple):
@@ -97,11 +100,13 @@ class EntryScheduler:
         self.cols = int(cols)
         self.name = scheduler
         self.pair_again = bool(pair_again)
-        if scheduler in ("assignment", "assignment-capped"):
+        if scheduler in ("assignment", "assignment-capped", "assignment-backlog"):
             if grid is None:
                 raise ValueError(f"the {scheduler} scheduler measures on the floor: give grid")
-            cap = STATION_CAP if scheduler == "assignment-capped" else None
-            self.scheduler = AssignmentScheduler(grid, station_cap=cap)
+            cap = None if scheduler == "assignment" else STATION_CAP
+            self.scheduler = AssignmentScheduler(
+                grid, station_cap=cap, cap_follows_backlog=scheduler == "assignment-backlog"
+            )
         else:
             self.scheduler = scheduler_named(scheduler)
         #: The most robots on their way to one first stop (None: no cap).
@@ -164,7 +169,8 @@ class EntryScheduler:
             goals = next_stop[at[listed]]
             # A robot paired again counts as on its way, and its own task stays offered.
             offered = offered_within_cap(next_stop[untaken], goals, self.station_cap,
-                                         held=np.isin(ids[untaken], current[again]))  # fmt: skip
+                                         held=np.isin(ids[untaken], current[again]),
+                                         backlog=self.scheduler.cap_follows_backlog)  # fmt: skip
             untaken = untaken[offered]
         if seekers.size and untaken.size:
             lengths = np.asarray(tasks.length, np.int64)[untaken]
