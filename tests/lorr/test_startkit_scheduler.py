@@ -11,7 +11,13 @@ from hypothesis import strategies as st
 
 from warehouse_phys.lorr import station_cap
 from warehouse_phys.lorr.rematching import KEEP_WITHIN
-from warehouse_phys.lorr.startkit.scheduler import EntryScheduler, OpenTasks
+from warehouse_phys.lorr.scheduling_assignment import scheduler_for
+from warehouse_phys.lorr.startkit.scheduler import (
+    ENTRY_SCHEDULERS,
+    FLEET_SCHEDULERS,
+    EntryScheduler,
+    OpenTasks,
+)
 from warehouse_phys.lorr.station_cap import STATION_CAP, stop_caps
 
 COLS = 10
@@ -239,3 +245,14 @@ def test_the_capped_assignment_never_fills_a_station_past_the_cap(name, seed):
         holder = np.full(len(ids), -1)
         holder[np.searchsorted(ids, current[current >= 0])] = np.flatnonzero(current >= 0)
         pool = tasks(ids, stops, holder, lengths)
+
+
+def test_each_entry_scheduler_is_the_fleet_scheduler_simulate_plays():
+    grid = _open_floor()
+    for entry, fleet in FLEET_SCHEDULERS.items():
+        ours, theirs = EntryScheduler(COLS, entry, grid).scheduler, scheduler_for(fleet, grid)
+        for setting in ("station_cap", "cap_follows_backlog", "length_weight"):
+            assert getattr(ours, setting, None) == getattr(theirs, setting, None), (entry, setting)
+        if hasattr(theirs, "rematch"):  # the entry's assignments always pair again
+            assert theirs.rematch, entry
+    assert set(FLEET_SCHEDULERS) == set(ENTRY_SCHEDULERS)

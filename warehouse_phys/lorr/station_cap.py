@@ -17,10 +17,10 @@ RANDOM-05 and CITY-02 the cap changed nothing in the steps measured.
 A fixed cap lets a station's open tasks pile up when robots come free far from it: in
 the capped scheduler's congestion-free flow on WAREHOUSE, the 72 side stations' share of
 the open tasks grew from a fifth to nearly two fifths by step 1,250 while robots waited
-for room elsewhere (``docs/lorr.md``). With ``backlog=True``
-each stop's cap follows its backlog (:func:`stop_caps`): a stop with more open tasks
-than the mean stop may have as many more robots on their way, so the tasks left behind
-draw robots back rather than accumulating.
+for room elsewhere (``docs/lorr.md``). With ``backlog=True`` each stop's cap follows its
+backlog (:func:`stop_caps`): a stop with more untaken open tasks than the mean of the
+stops that have any may have that many times the cap of robots on its way, so the tasks
+left behind draw robots back rather than accumulating.
 
 :class:`~warehouse_phys.lorr.scheduling_assignment.AssignmentScheduler`'s
 ``station_cap`` (``"rematch-capped"`` by name) asks the fleet's errand list
@@ -67,8 +67,8 @@ def station_loads(stops: np.ndarray, goals: np.ndarray) -> np.ndarray:
 def stop_caps(stops: np.ndarray, cap: int) -> np.ndarray:
     """``(len(stops),)`` int64: the cap of each task's stop when the cap follows the
     backlog: ``max(cap, ceil(cap * n / mean))``, where ``n`` is how many of ``stops``
-    (the open tasks' first stops, cell indices) are that stop and ``mean`` is ``n``'s
-    mean over the distinct stops. Computed in whole numbers, so a stop with exactly the
+    (the untaken open tasks' first stops, cell indices) are that stop and ``mean`` is
+    ``n``'s mean over the distinct stops. Computed in whole numbers, so a stop with exactly the
     mean has ``cap``; a stop with twice the mean, ``2 * cap``.
 
     Raises:
