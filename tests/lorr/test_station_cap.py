@@ -151,8 +151,9 @@ def instance(tasks, starts, reveal=1.0):
 def test_a_full_station_sends_the_next_robot_elsewhere():
     # Three robots beside station 0 (cells 1, 7, 8); tasks 0-2 begin at 0 and task 3 at
     # cell 41, far away. Uncapped, all three go to 0; with a cap of 2 the third goes to 41.
-    # With the cap following the backlog, station 0 has three open tasks against the mean
-    # stop's two: its cap is 3, and all three go there.
+    # With the cap following the backlog: six open tasks (the file's four, then its first
+    # two again), five at station 0 and one at 41, the mean stop three: 0's cap is 4, and
+    # all three go there.
     tasks = [[0, 20], [0, 21], [0, 22], [41, 20]]
     for cap, backlog, going_to_0 in ((None, False, 3), (2, False, 2), (2, True, 3)):
         scheduler = AssignmentScheduler(GRID, station_cap=cap, cap_follows_backlog=backlog)

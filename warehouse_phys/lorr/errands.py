@@ -226,11 +226,12 @@ class ScheduledTasks(ErrandList):
     and on the 2024 main round's random floors 5-26 % more than the nearest pairing
     (``docs/lorr.md``), so it is the default.
 
-    A scheduler with a ``station_cap`` (``"rematch-capped"``) is offered only the open
-    tasks that :func:`~warehouse_phys.lorr.station_cap.offered_within_cap` lets through:
-    no first stop ever has more than the cap of robots on their way to it (robots paired
-    again count as on their way, and their own tasks stay offered), and a free robot for
-    which no task is offered waits, without a task, for room.
+    A scheduler with a ``station_cap`` (``"rematch-capped"``; ``"rematch-backlog"``, the
+    cap growing with a stop's backlog) is offered only the open tasks that
+    :func:`~warehouse_phys.lorr.station_cap.offered_within_cap` lets through: no hand-out
+    sends a first stop past its cap of robots on their way to it (robots paired again
+    count as on their way, and their own tasks stay offered), and a free robot for which
+    no task is offered waits, without a task, for room.
     """
 
     def __init__(

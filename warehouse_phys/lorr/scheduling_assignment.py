@@ -201,7 +201,7 @@ def default_scheduler(grid: WarehouseGrid) -> AssignmentScheduler:
 
 
 #: Every scheduler's name: the built-in ones, ``"assignment"`` (:class:`AssignmentScheduler`),
-#: ``"rematch"`` (the same, rematching: :attr:`AssignmentScheduler.rematch`) and
+#: ``"rematch"`` (the same, rematching: :attr:`AssignmentScheduler.rematch`),
 #: ``"rematch-capped"`` (rematching, at most
 #: :data:`~warehouse_phys.lorr.station_cap.STATION_CAP` robots on their way to one first
 #: stop: :attr:`AssignmentScheduler.station_cap`) and ``"rematch-backlog"`` (the same cap,

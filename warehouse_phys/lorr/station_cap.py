@@ -18,15 +18,18 @@ A fixed cap lets a station's open tasks pile up when robots come free far from i
 the capped scheduler's congestion-free flow on WAREHOUSE, the 72 side stations' share of
 the open tasks grew from a fifth to nearly two fifths by step 1,250 while robots waited
 for room elsewhere (``docs/lorr.md``). With ``backlog=True`` each stop's cap follows its
-backlog (:func:`stop_caps`): a stop with more untaken open tasks than the mean of the
-stops that have any may have that many times the cap of robots on its way, so the tasks
-left behind draw robots back rather than accumulating.
+backlog (:func:`stop_caps`): a stop with more of the tasks on offer to the pairing than
+the mean of the stops that have any may have that many times the cap of robots on its
+way (the tasks on offer: the open tasks no robot has, and those of the robots paired
+again, at most :data:`~warehouse_phys.lorr.rematching.REMATCH_MAX`). In that flow the
+side stations' open tasks then stayed level and no robot waited for room.
 
 :class:`~warehouse_phys.lorr.scheduling_assignment.AssignmentScheduler`'s
-``station_cap`` (``"rematch-capped"`` by name) asks the fleet's errand list
+``station_cap`` (``"rematch-capped"`` by name; with ``cap_follows_backlog``,
+``"rematch-backlog"``) asks the fleet's errand list
 (:class:`~warehouse_phys.lorr.errands.ScheduledTasks`) to offer its pairing only these
-tasks; the start-kit entry's ``"assignment-capped"``
-(:class:`~warehouse_phys.lorr.startkit.scheduler.EntryScheduler`) does the same. Like
+tasks; the start-kit entry's ``"assignment-capped"`` and ``"assignment-backlog"``
+(:class:`~warehouse_phys.lorr.startkit.scheduler.EntryScheduler`) do the same. Like
 :mod:`warehouse_phys.world.grid`, this module imports neither gymnasium, pymunk nor
 pygame.
 """
@@ -35,7 +38,8 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Robots on their way to one first stop at most for ``"rematch-capped"``: on 2024
+#: Robots on their way to one first stop at most for ``"rematch-capped"`` (and the least
+#: cap of a stop for ``"rematch-backlog"``): on 2024
 #: WAREHOUSE (``docs/lorr.md``) the mean station had 5-8 robots on their way to it. The
 #: only value measured.
 STATION_CAP = 8
@@ -67,7 +71,7 @@ def station_loads(stops: np.ndarray, goals: np.ndarray) -> np.ndarray:
 def stop_caps(stops: np.ndarray, cap: int) -> np.ndarray:
     """``(len(stops),)`` int64: the cap of each task's stop when the cap follows the
     backlog: ``max(cap, ceil(cap * n / mean))``, where ``n`` is how many of ``stops``
-    (the untaken open tasks' first stops, cell indices) are that stop and ``mean`` is
+    (the first stops of the tasks on offer, cell indices) are that stop and ``mean`` is
     ``n``'s mean over the distinct stops. Computed in whole numbers, so a stop with exactly the
     mean has ``cap``; a stop with twice the mean, ``2 * cap``.
 

@@ -75,13 +75,16 @@ class EntryScheduler:
     on their way to a first stop the robots ``unopened`` (those paired again too, whose
     own tasks stay offered), the free robots proposed for their held tasks and the tasks
     still held: no first stop then has more than the cap of robots on their way to it
-    (the fleet's ``"rematch-capped"``).
+    (the fleet's ``"rematch-capped"``), unless it had before. With
+    ``"assignment-backlog"`` each stop's cap follows its backlog
+    (:func:`~warehouse_phys.lorr.station_cap.stop_caps`, the fleet's
+    ``"rematch-backlog"``).
 
     Args:
         cols: The floor's width (cells are ``row * cols + col``).
         scheduler: A name of :data:`ENTRY_SCHEDULERS`.
-        grid: The floor, which ``"assignment"`` and ``"assignment-capped"`` measure
-            their distances on.
+        grid: The floor, which ``"assignment"``, ``"assignment-capped"`` and
+            ``"assignment-backlog"`` measure their distances on.
         pair_again: Pair the robots on their way to a task not opened again each round
             (the module), when :meth:`schedule` is told which they are.
 
@@ -133,8 +136,8 @@ class EntryScheduler:
         (:attr:`pair_again`); one the pairing leaves without a task keeps its own.
 
         Raises:
-            ValueError: for ``"assignment-capped"`` without ``unopened`` (the cap counts
-                the robots on their way to a first stop).
+            ValueError: for ``"assignment-capped"`` or ``"assignment-backlog"`` without
+                ``unopened`` (the cap counts the robots on their way to a first stop).
         """
         if self.station_cap is not None and unopened is None:
             raise ValueError(f"{self.name} counts the robots on their way to a first stop: "
