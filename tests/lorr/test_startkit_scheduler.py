@@ -215,16 +215,17 @@ def test_the_capped_assignment_never_fills_a_station_past_the_cap(name, seed):
         return {s: counted.count(s) for s in stations.tolist()}
 
     before = loads(current[unopened])
-    # Each station's cap: fixed, or the largest the backlog gave it in a round so far.
-    caps = dict.fromkeys(stations.tolist(), STATION_CAP)
+    # Each station's cap in a round: fixed, or what the backlog gave it in that round.
+    caps = {}
 
     def recording(stops, cap):
         result = stop_caps(stops, cap)
-        for stop, its_cap in zip(np.asarray(stops).tolist(), result.tolist(), strict=True):
-            caps[stop] = max(caps[stop], its_cap)
+        caps.update(zip(np.asarray(stops).tolist(), result.tolist(), strict=True))
         return result
 
     for _ in range(2):  # the second round: the kit took the proposal, the holds stand
+        caps.clear()
+        caps.update(dict.fromkeys(stations.tolist(), STATION_CAP))
         with mock.patch.object(station_cap, "stop_caps", recording):
             proposal = scheduler.schedule(current, rng.integers(0, COLS * COLS, n), pool,
                                           finishing, unopened)  # fmt: skip
@@ -232,6 +233,8 @@ def test_the_capped_assignment_never_fills_a_station_past_the_cap(name, seed):
         after = loads(np.concatenate([proposal[(proposal >= 0) & ~opened], held]))
         for station in stations.tolist():
             assert after[station] <= max(caps[station], before[station])
+        # A round's load is a bound on the next round's load before it pairs.
+        before = {s: max(before[s], after[s]) for s in before}
         given_out = np.concatenate([proposal[proposal >= 0], held])
         assert len(set(given_out.tolist())) == len(given_out)  # no task twice
         assert (proposal[opened] == current[opened]).all()  # an opened task stays
