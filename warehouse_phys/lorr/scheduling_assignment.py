@@ -208,6 +208,8 @@ def default_scheduler(grid: WarehouseGrid) -> AssignmentScheduler:
 #: growing at a stop with more open tasks than the mean stop:
 #: :attr:`AssignmentScheduler.cap_follows_backlog`).
 SCHEDULER_NAMES = (*SCHEDULERS, "assignment", "rematch", "rematch-capped", "rematch-backlog")
+#: The names of :data:`SCHEDULER_NAMES` that are an :class:`AssignmentScheduler`.
+_ASSIGNMENTS = SCHEDULER_NAMES[len(SCHEDULERS) :]
 
 
 def scheduler_for(name: str, grid: WarehouseGrid) -> Scheduler:
@@ -219,7 +221,7 @@ def scheduler_for(name: str, grid: WarehouseGrid) -> Scheduler:
         ValueError: naming the known schedulers, for another name.
     """
     kind, equals, weight = name.partition("=")
-    if kind in ("assignment", "rematch", "rematch-capped", "rematch-backlog"):
+    if kind in _ASSIGNMENTS:
         try:
             weighed = {"length_weight": float(weight)} if equals else {}
             cap = STATION_CAP if kind in ("rematch-capped", "rematch-backlog") else None

@@ -103,7 +103,7 @@ class EntryScheduler:
         self.cols = int(cols)
         self.name = scheduler
         self.pair_again = bool(pair_again)
-        if scheduler in ("assignment", "assignment-capped", "assignment-backlog"):
+        if scheduler in ENTRY_SCHEDULERS and scheduler not in SCHEDULERS:  # an assignment
             if grid is None:
                 raise ValueError(f"the {scheduler} scheduler measures on the floor: give grid")
             cap = None if scheduler == "assignment" else STATION_CAP
