@@ -58,7 +58,8 @@ def test_a_task_held_for_a_finishing_robot_is_proposed_once_it_is_free():
 
 
 def test_an_unknown_scheduler_is_refused():
-    with pytest.raises(ValueError, match="unknown scheduler 'hungarian'"):
+    known = "nearest, makespan, assignment, assignment-capped, assignment-backlog"
+    with pytest.raises(ValueError, match=f"unknown scheduler 'hungarian'; known: {known}"):
         EntryScheduler(COLS, "hungarian")
 
 

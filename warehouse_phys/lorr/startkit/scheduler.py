@@ -103,7 +103,11 @@ class EntryScheduler:
         self.cols = int(cols)
         self.name = scheduler
         self.pair_again = bool(pair_again)
-        if scheduler in ENTRY_SCHEDULERS and scheduler not in SCHEDULERS:  # an assignment
+        if scheduler not in ENTRY_SCHEDULERS:
+            raise ValueError(
+                f"unknown scheduler {scheduler!r}; known: {', '.join(ENTRY_SCHEDULERS)}"
+            )
+        if scheduler not in SCHEDULERS:  # an assignment
             if grid is None:
                 raise ValueError(f"the {scheduler} scheduler measures on the floor: give grid")
             cap = None if scheduler == "assignment" else STATION_CAP
