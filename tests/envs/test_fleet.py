@@ -144,10 +144,11 @@ def test_a_forced_corner_follow_makes_robots_above_the_threshold_touch():
 # ----------------------------------------------------------------- the episode
 def test_a_robot_that_delivers_parks_and_the_episode_ends_when_all_have():
     env = fleet.parallel_env(num_robots=2)
-    observations, infos = env.reset(seed=3)
+    observations, infos = env.reset(seed=9)  # a seed where one robot parks first
     rng = np.random.default_rng(0)
     rewards_seen = dict.fromkeys(env.possible_agents, 0.0)
     parked = set()
+    steps_beside_a_parked_robot = 0
     for _ in range(400):
         if not env.agents:
             break
@@ -163,6 +164,10 @@ def test_a_robot_that_delivers_parks_and_the_episode_ends_when_all_have():
             assert terminations[agent] == (reward == 1.0)
             if terminations[agent]:
                 parked.add(agent)
+        # A parked robot stands on its package and delivers it no more.
+        assert env.deliveries.tolist() == [int(a in parked) for a in env.possible_agents]
+        steps_beside_a_parked_robot += len(env.agents) == 1
+    assert steps_beside_a_parked_robot >= 2
     assert env.agents == []
     assert rewards_seen == {"robot_0": 1.0, "robot_1": 1.0}
 
