@@ -3,6 +3,7 @@ own collision verdicts are the swept-square rule's, the kit's run of the entry i
 package's own simulation of it, the adapters on the kit's MAPF types, and the command."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -123,16 +124,33 @@ def test_a_kit_run_of_the_entry_is_the_packages_simulation_of_it(tmp_path):
         assert system.output().events == kit.data["events"]
 
 
-def test_the_kit_runs_the_entry_with_the_capped_scheduler_as_the_package_does(tmp_path):
-    build = built_kit()
+@pytest.fixture(scope="module")
+def capped_kit_run(tmp_path_factory):
+    """``python -m warehouse_phys.startkit run --only ours`` of the station instance with
+    ``--scheduler assignment-capped``, 120 ticks: the kit's own run of the entry (its
+    ``lifelong``, through :func:`run_kit` with the entry's settings), once for the two tests
+    that read it; the instance and the command's argument list, less ``--only``."""
+    built_kit()
+    folder = tmp_path_factory.mktemp("capped")
     instance = station_instance()
-    path = write_instance(instance, tmp_path / "stations.json")
-    settings = {"WAREHOUSE_PHYS_SCHEDULER": "assignment-capped"}
-    result = run_kit(build, path, tmp_path / "ours.json", 120, settings=settings)
-    assert result.returncode == 0, result.note
-    assert (result.refused_motions, result.planner_errors) == (0, 0)
-    assert result.schedule_errors == 0 or result.scheduler_late > 0
-    kit = read_output(tmp_path / "ours.json")
+    path = write_instance(instance, folder / "instance" / "stations.json")
+    argv = ["run", str(path), "--kit", str(KIT), "--ticks", "120", "--out", str(folder / "out"),
+            "--scheduler", "assignment-capped"]  # fmt: skip
+    status = startkit.main([*argv, "--only", "ours"])
+    return instance, argv, status
+
+
+def test_the_kit_runs_the_entry_with_the_capped_scheduler_as_the_package_does(capped_kit_run):
+    instance, argv, status = capped_kit_run
+    out = Path(argv[argv.index("--out") + 1])
+    assert status == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["scheduler"] == "assignment-capped"
+    result = next(run for run in summary["runs"] if run["name"] == "ours")
+    assert result["returncode"] == 0, result["note"]
+    assert (result["refused_motions"], result["planner_errors"]) == (0, 0)
+    assert result["schedule_errors"] == 0 or result["scheduler_late"] > 0
+    kit = read_output(out / "ours.json")
     assert kit.data["numTaskFinished"] > 0
     recorded = kit.actual.shape[1]
     replay = DelayReplay(kit.data["delayIntervals"], recorded)
@@ -219,14 +237,12 @@ def test_the_command_runs_the_three_and_writes_their_summary(tmp_path, capsys):
     assert (summary["planner"], summary["scheduler"]) == ("guided-ops-repair", "assignment")
 
 
-def test_the_command_runs_the_entry_and_simulate_with_the_same_scheduler(tmp_path, capsys):
-    built_kit()
-    path = write_instance(station_instance(), tmp_path / "instance" / "stations.json")
-    out = tmp_path / "out"
-    argv = ["run", str(path), "--kit", str(KIT), "--ticks", "120", "--out", str(out),
-            "--scheduler", "assignment-capped"]  # fmt: skip
-    for only in ("ours", "simulate"):  # simulate replays the delays of ours
-        assert startkit.main([*argv, "--only", only]) == 0, capsys.readouterr().out
+def test_the_command_runs_the_entry_and_simulate_with_the_same_scheduler(capped_kit_run, capsys):
+    _, argv, status = capped_kit_run  # --only ours: the kit's run of the entry
+    out = Path(argv[argv.index("--out") + 1])
+    assert status == 0
+    # simulate replays the delays of ours
+    assert startkit.main([*argv, "--only", "simulate"]) == 0, capsys.readouterr().out
     assert "the entry's guided-ops-repair and assignment-capped" in capsys.readouterr().out
     runs = json.loads((out / "summary.json").read_text())["runs"]
     assert [run["name"] for run in runs] == ["ours", "simulate"]  # the summary keeps both

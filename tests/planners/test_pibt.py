@@ -1,6 +1,8 @@
 """The PIBT planner: traffic grants every plan, nobody is stuck, the field's throughput."""
 
 import hashlib
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -8,6 +10,7 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
+from tests.conftest import ROOT
 from tests.world.random_floors import shelf_layout
 from warehouse_phys.envs import fleet
 from warehouse_phys.planners.distances import DistanceMaps
@@ -189,10 +192,23 @@ def plans_digest(seed, moves="grid"):
     return digest.hexdigest()
 
 
-def test_plans_are_bit_identical_across_processes_and_follow_the_seed(run_python):
+@pytest.fixture(scope="module")
+def digests_in_another_process():
+    """:func:`plans_digest` of seed 3 for four-direction and for turning robots, both from
+    one fresh interpreter (what a user's script sees: nothing imported, nothing left over
+    from other tests), started once for the two tests that compare with it."""
+    script = ("from tests.planners.test_pibt import plans_digest; "
+              "print(plans_digest(3)); print(plans_digest(3, 'rotate'))")  # fmt: skip
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                            cwd=ROOT)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    grid, rotate = result.stdout.split()
+    return {"grid": grid, "rotate": rotate}
+
+
+def test_plans_are_bit_identical_across_processes_and_follow_the_seed(digests_in_another_process):
     here = plans_digest(3)
-    there = run_python("from tests.planners.test_pibt import plans_digest; print(plans_digest(3))")
-    assert there.strip() == here
+    assert digests_in_another_process["grid"] == here
     assert plans_digest(4) != here
 
 
@@ -339,30 +355,30 @@ def test_turning_robots_pass_each_other_out_of_a_dead_end():
 
 
 def test_turning_robots_keep_a_dense_random_floor_moving():
-    """400 turning robots on 32 x 32 floors with 20 % shelves at random (the LoRR main
-    rounds' random floors' kind: many dead ends), lifelong, 600 steps, seeds 0-2: the last
-    third delivers as much as the middle one (swap: 1,981 against 1,879). Without the swap
-    operation the fleets jammed at dead ends and the last third fell to 1,182."""
-    middle = last = 0
-    for seed in range(3):
-        rows = random_floor(rows=32, cols=32, density=0.2, seed=seed)
-        env = fleet.parallel_env(num_robots=400, layout=list(rows), starts="random",
-                                 lifelong=True, moves="rotate", max_cycles=600)  # fmt: skip
-        policy = pibt_policy(seed)
-        observations, infos = env.reset(seed=seed)
-        done = []
-        for _ in range(600):
-            observations, _, _, _, infos = env.step(policy(env, observations, infos))
-            done.append(int(env.deliveries.sum()))
-        middle += done[399] - done[199]
-        last += done[599] - done[399]
-    assert last >= 0.95 * middle
+    """400 turning robots on a 32 x 32 floor with 20 % shelves at random (the LoRR main
+    rounds' random floors' kind: many dead ends), lifelong, 600 steps: the last third
+    delivers as much as the middle one (swap: 726 against 701). Without the swap operation
+    the fleet jammed at dead ends and the last third fell to 379 (seeds 0-2 together: 1,981
+    against 1,879 with the swap, 1,182 without; seed 1 alone, the clearest of the three
+    without it and the fastest, proves the same in a third of the time)."""
+    seed = 1
+    rows = random_floor(rows=32, cols=32, density=0.2, seed=seed)
+    env = fleet.parallel_env(num_robots=400, layout=list(rows), starts="random",
+                             lifelong=True, moves="rotate", max_cycles=600)  # fmt: skip
+    policy = pibt_policy(seed)
+    observations, infos = env.reset(seed=seed)
+    done = []
+    for _ in range(600):
+        observations, _, _, _, infos = env.step(policy(env, observations, infos))
+        done.append(int(env.deliveries.sum()))
+    middle = done[399] - done[199]
+    last = done[599] - done[399]
+    assert last >= 0.95 * middle, (middle, last)
 
 
-def test_turning_plans_are_bit_identical_across_processes(run_python):
+def test_turning_plans_are_bit_identical_across_processes(digests_in_another_process):
     here = plans_digest(3, "rotate")
-    script = "from tests.planners.test_pibt import plans_digest; print(plans_digest(3, 'rotate'))"
-    assert run_python(script).strip() == here
+    assert digests_in_another_process["rotate"] == here
 
 
 def test_a_turning_planner_needs_headings_and_answers_a_request():
