@@ -88,14 +88,15 @@ def run_digest(path: str, moves: str, steps: int) -> str:
     return digest.hexdigest()
 
 
-@pytest.mark.parametrize("moves", ["grid", "rotate"])
-def test_an_instance_fleet_is_bit_identical_across_processes(tmp_path, run_python, moves):
+def test_an_instance_fleet_is_bit_identical_across_processes(tmp_path, run_python):
+    """Both move models, in one fresh process (one interpreter to start, not two)."""
     path = write_instance(small_instance("scheduler", robots=8), tmp_path / "small.json")
     script = (
         "from tests.envs.test_fleet_instances import run_digest\n"
-        f"print(run_digest({str(path)!r}, {moves!r}, 80))"
+        f"for moves in ('grid', 'rotate'): print(run_digest({str(path)!r}, moves, 80))"
     )
-    assert run_python(script).strip() == run_digest(str(path), moves, 80)
+    there = run_python(script).split()
+    assert there == [run_digest(str(path), moves, 80) for moves in ("grid", "rotate")]
 
 
 def test_the_physics_twin_of_an_instance_fleet_follows_the_grid_twin():
