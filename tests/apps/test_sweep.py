@@ -21,10 +21,10 @@ SWEEP = ["--env", "grid", "phys", "--seeds", "2", "--episodes", "60"]
 BLOCKED = "runs/phys-default-a0.9-g0.9-e60-seed1"
 
 
-def run_sweep(*args, cwd):
+def run_sweep(*args, cwd, env=None):
     return subprocess.run(
         [sys.executable, "-m", "warehouse_phys.apps.sweep", *args],
-        cwd=cwd, capture_output=True, text=True, timeout=300,
+        cwd=cwd, capture_output=True, text=True, timeout=300, env=env,
     )  # fmt: skip
 
 

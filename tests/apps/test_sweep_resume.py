@@ -170,12 +170,18 @@ def test_a_folder_held_by_a_lingering_worker_is_not_finished_and_is_waited_for(
 
 #: Loaded by every Python process of the killed sweep, its Ray workers included: a trial
 #: there stalls with its folder locked, and a process of its own keeps the folder's lock
-#: for 20 s (a worker that Ray is slow to end, as under load).
+#: (a worker that Ray is slow to end, as under load) until the new run's worker has found
+#: the folder held (the mark at $WAITED_MARK), or for two minutes at most. The stalled
+#: worker lets go of its own copy of the lock, and would remove nothing if it ended, so
+#: that whenever and however Ray ends it, the folder stays that process's.
 STALL_TRIALS = """
 import importlib.util
+import os
 import subprocess
 import sys
 import time
+
+LINGER = 'for i in $(seq 1200); do [ -e "$0" ] && break; sleep 0.1; done &'
 
 
 class StallTrials:
@@ -190,8 +196,12 @@ class StallTrials:
             run_module(module)
 
             def train_run(folder, *args, **kwargs):
-                # Detached ("&"): Ray ends a worker's children with it, not this one.
-                subprocess.Popen(["sh", "-c", "sleep 20 &"], pass_fds=[folder._handle])
+                # Detached ("&") in a session of its own: Ray ends a worker's children
+                # and its process group with it, not this process.
+                subprocess.Popen(["sh", "-c", LINGER, os.environ["WAITED_MARK"]],
+                                 pass_fds=[folder._handle], start_new_session=True)
+                os.close(folder._handle)
+                folder._handle, folder._created = None, []  # however it ends: nothing removed
                 time.sleep(600)
 
             module.train_run = train_run
@@ -203,21 +213,63 @@ class StallTrials:
 sys.meta_path.insert(0, StallTrials())
 """
 
+#: Loaded by every Python process of the new run: a trial that finds its folder held by
+#: another process, and so waits for it, leaves the mark at $WAITED_MARK.
+MARK_WAITING = """
+import importlib.util
+import os
+import pathlib
+import sys
+
+
+class MarkWaiting:
+    def find_spec(self, name, path=None, target=None):
+        if name != "warehouse_phys.apps.sweep.resume":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        run_module = spec.loader.exec_module
+
+        def exec_module(module):
+            run_module(module)
+            held_by_another = module._held_by_another
+
+            def held(folder):
+                if held_by_another(folder):
+                    pathlib.Path(os.environ["WAITED_MARK"]).touch()
+                    return True
+                return False
+
+            module._held_by_another = held
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+
+sys.meta_path.insert(0, MarkWaiting())
+"""
+
+
+def hook_env(folder, hook, mark):
+    """The environment of a sweep whose Python processes load ``hook`` (a sitecustomize)."""
+    folder.mkdir()
+    (folder / "sitecustomize.py").write_text(hook)
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(folder), *sys.path]),
+            "WAITED_MARK": str(mark)}  # fmt: skip
+
 
 @pytest.mark.slow
 def test_a_sweep_run_again_at_once_after_its_driver_is_killed_succeeds(tmp_path):
     # A worker of the killed driver lingers, the trial's folder locked, while the new run
     # starts: the new run's worker waits for the folder (it failed "in use" before).
-    hook = tmp_path / "hook"
-    hook.mkdir()
-    (hook / "sitecustomize.py").write_text(STALL_TRIALS)
+    mark = tmp_path / "waited"
     out = tmp_path / "sweep"
     argv = ["--seeds", "1", "--episodes", "60", "--out", str(out), "--quiet"]
     folder = out / "runs/grid-default-a0.9-g0.9-e60-seed0"
     driver = subprocess.Popen(
         [sys.executable, "-m", "warehouse_phys.apps.sweep", *argv], cwd=tmp_path,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), *sys.path])},
+        env=hook_env(tmp_path / "stall", STALL_TRIALS, mark),
     )  # fmt: skip
     try:
         deadline = time.monotonic() + 120
@@ -228,8 +280,10 @@ def test_a_sweep_run_again_at_once_after_its_driver_is_killed_succeeds(tmp_path)
     finally:
         driver.kill()  # SIGKILL: Ray is not shut down
         driver.wait()
-    again = run_sweep(*argv, cwd=tmp_path)
+    assert held(folder)  # by the lingering process
+    again = run_sweep(*argv, cwd=tmp_path, env=hook_env(tmp_path / "mark", MARK_WAITING, mark))
     assert again.returncode == 0, again.stderr
+    assert mark.exists(), "the new run's trial never found the folder held"
     assert [row["status"] for row in read_rows(out)] == ["done"]
     _, metadata = load_q_table(folder / "qtable.npz")
     assert metadata["episodes"] == 60

@@ -158,6 +158,12 @@ def run_on_tune(
     # Ctrl-C interrupts at once (and ray_session shuts Ray down) rather than waiting
     # for Tune to stop the trials gracefully.
     os.environ.setdefault("TUNE_DISABLE_SIGINT_HANDLER", "1")
+    # A local Ray started here prestarts no idle workers (one a CPU, as it does by
+    # default): Tune runs the trials in workers of their own, set up for the sweep's job,
+    # so those are never used, only paid for, half a second of CPU each, just as the
+    # trials' workers start. (Read by the Ray processes this one starts; a cluster at
+    # --address keeps its own settings, and a Ray version without it ignores it.)
+    os.environ.setdefault("RAY_prestart_worker_first_driver", "0")
     from ray import tune
 
     total = len(jobs)
