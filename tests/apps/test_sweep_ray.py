@@ -126,3 +126,38 @@ def test_sigterm_shuts_down_the_ray_it_started(monkeypatch):
     assert time.monotonic() - started < 4
     assert calls == ["init", "shutdown"]
     assert signal.getsignal(signal.SIGTERM) == before
+
+
+def test_the_sweeps_local_ray_prestarts_no_idle_workers_and_a_cluster_keeps_its_own(
+    monkeypatch, tmp_path
+):
+    """Tune runs the trials in workers of their own, so the sweep's local Ray starts no
+    idle ones ahead of them; a cluster's settings and a session of the default are Ray's."""
+    import ray
+
+    inits = []
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    monkeypatch.setattr(ray, "init", lambda **kwargs: inits.append(kwargs))
+    monkeypatch.setattr(ray, "shutdown", lambda: None)
+    monkeypatch.setattr(ray, "cluster_resources", lambda: {"CPU": 2})
+    monkeypatch.setattr(sweep_ray, "check_address", lambda address: None)
+    with sweep_ray.ray_session(None, 1, prestart_workers=False):
+        pass
+    with sweep_ray.ray_session("10.0.0.1:6379", 1, prestart_workers=False):
+        pass
+    with sweep_ray.ray_session(None, 1):
+        pass
+    assert inits[0]["_system_config"] == {"prestart_worker_first_driver": False}
+    assert ["_system_config" in init for init in inits[1:]] == [False, False]
+
+    class Recorded(Exception):
+        """The sweep's session, asked for and recorded, not started."""
+
+    def recorded_session(*args, **kwargs):
+        raise Recorded(args, kwargs)
+
+    monkeypatch.setattr(sweep_ray, "ray_session", recorded_session)
+    with pytest.raises(Recorded) as asked:
+        sweep_ray.run_on_tune([], tmp_path, address=None, cpus_per_trial=1,
+                              max_concurrent=None, quiet=True)  # fmt: skip
+    assert asked.value.args == ((None, 1), {"prestart_workers": False})

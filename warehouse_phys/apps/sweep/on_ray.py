@@ -90,12 +90,16 @@ def check_cpus_per_trial(cpus_per_trial: int, available: float, where: str) -> N
 
 
 @contextmanager
-def ray_session(address: str | None, cpus_per_trial: int) -> Iterator[None]:
+def ray_session(
+    address: str | None, cpus_per_trial: int, *, prestart_workers: bool = True
+) -> Iterator[None]:
     """Ray for the sweep: connected to ``address``, or a local Ray started here.
 
     A Ray this call started is shut down when the block ends, however it ends:
     SIGINT and (while the block lasts) SIGTERM interrupt it as
     ``KeyboardInterrupt``. A Ray already running in the process is used as it is.
+    ``prestart_workers=False``: a local Ray started here starts no idle worker ahead of
+    the first task (by default it starts one a CPU); a cluster keeps its own settings.
 
     Raises:
         AddressRefusedError: if no cluster answers at ``address``.
@@ -119,6 +123,8 @@ def ray_session(address: str | None, cpus_per_trial: int) -> Iterator[None]:
             signal.signal(signal.SIGTERM, _terminate)
         try:
             if address is None:
+                if not prestart_workers:
+                    options["_system_config"] = {"prestart_worker_first_driver": False}
                 ray.init(num_cpus=os.cpu_count() or 1, **options)
             else:
                 ray.init(address=address, **options)
@@ -158,12 +164,6 @@ def run_on_tune(
     # Ctrl-C interrupts at once (and ray_session shuts Ray down) rather than waiting
     # for Tune to stop the trials gracefully.
     os.environ.setdefault("TUNE_DISABLE_SIGINT_HANDLER", "1")
-    # A local Ray started here prestarts no idle workers (one a CPU, as it does by
-    # default): Tune runs the trials in workers of their own, set up for the sweep's job,
-    # so those are never used, only paid for, half a second of CPU each, just as the
-    # trials' workers start. (Read by the Ray processes this one starts; a cluster at
-    # --address keeps its own settings, and a Ray version without it ignores it.)
-    os.environ.setdefault("RAY_prestart_worker_first_driver", "0")
     from ray import tune
 
     total = len(jobs)
@@ -185,7 +185,10 @@ def run_on_tune(
             if not quiet:
                 print(f"[{self.done}/{total}] {trial.config['job']['name']}: {status}", flush=True)
 
-    with ray_session(address, cpus_per_trial):
+    # A local Ray prestarts no idle workers (one a CPU by default): Tune runs the trials
+    # in workers of their own, set up for the sweep's job, so those would never be used,
+    # only paid for (half a second of CPU each, just as the trials' workers start).
+    with ray_session(address, cpus_per_trial, prestart_workers=False):
         trainable = tune.with_resources(run_trial_job, {"cpu": cpus_per_trial})
         tuner = tune.Tuner(
             trainable,
