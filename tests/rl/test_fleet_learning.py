@@ -103,7 +103,7 @@ def test_the_fleet_recording_is_still_importable_from_here():
 
 def test_a_neighbours_table_sees_adjacent_robots_and_round_trips(tmp_path):
     env = fleet.parallel_env(num_robots=2, observation="neighbours")
-    result = train_fleet(env, QLearningConfig(episodes=100, seed=0))
+    result = train_fleet(env, QLearningConfig(episodes=100, seed=0))  # 230 such entries
     assert result.q.shape == (4, 5, 4, 5, 16, 5)
     assert result.q[..., 1:, :].any()  # states with a robot beside were visited
     metadata = fleet_table_metadata(env, QLearningConfig(episodes=100), "warehouse-robot-v0")
@@ -169,7 +169,8 @@ def test_training_episodes_are_cut_at_max_steps():
 def test_the_learned_policy_breaks_standoffs_with_its_random_actions():
     # (python -m warehouse_phys.train does the same on the 4x5 floor and aisles: 3000 episodes)
     # 300 episodes: 60 delivered, cost 379 (800: 60, 343); without the random actions
-    # (patience=None) 52 and 1,777, so this fails; random 55 and 3,158, shortest 46.
+    # (epsilon=0, patience=None) 52 and 1,777, so this fails; random 55 and 3,158,
+    # shortest 46.
     env = fleet.parallel_env(num_robots=3, grid_rows=3, grid_cols=4, observation="neighbours")
     result = train_fleet(env, QLearningConfig(episodes=300, seed=0))
     learned = evaluate_fleet(env, greedy_fleet_policy(result.q), seeds=range(20))
