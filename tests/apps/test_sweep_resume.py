@@ -168,86 +168,76 @@ def test_a_folder_held_by_a_lingering_worker_is_not_finished_and_is_waited_for(
     assert sweep_resume.finished_row(trials[0], out)["status"] == "done"
 
 
-#: Loaded by every Python process of the killed sweep, its Ray workers included: a trial
-#: there stalls with its folder locked, and a process of its own keeps the folder's lock
-#: (a worker that Ray is slow to end, as under load) until the new run's worker has found
-#: the folder held (the mark at $WAITED_MARK), or for two minutes at most. The stalled
-#: worker lets go of its own copy of the lock, and would remove nothing if it ended, so
-#: that whenever and however Ray ends it, the folder stays that process's.
-STALL_TRIALS = """
+def patched_on_import(module: str, patch: str) -> str:
+    """A ``sitecustomize`` for the sweep's Python processes, its Ray workers included:
+    when ``module`` of the package is imported, it runs and then ``patch(module)`` (the
+    source ``patch`` defines) changes it."""
+    return f"""
 import importlib.util
 import os
+import pathlib
 import subprocess
 import sys
 import time
 
+{patch}
+
+class PatchOnImport:
+    def find_spec(self, name, path=None, target=None):
+        if name != {module!r}:
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        run_module = spec.loader.exec_module
+
+        def exec_module(module):
+            run_module(module)
+            patch(module)
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+
+sys.meta_path.insert(0, PatchOnImport())
+"""
+
+
+#: The killed sweep's trial stalls with its folder locked, and a process of its own keeps
+#: the folder's lock (a worker that Ray is slow to end, as under load) until the new run's
+#: worker has found the folder held (the mark at $WAITED_MARK), or for two minutes at
+#: most. The stalled worker lets go of its own copy of the lock, and would remove nothing
+#: if it ended, so that whenever and however Ray ends it, the folder stays that process's.
+STALL_TRIALS = patched_on_import("warehouse_phys.apps.runs", """
 LINGER = 'for i in $(seq 1200); do [ -e "$0" ] && break; sleep 0.1; done &'
 
 
-class StallTrials:
-    def find_spec(self, name, path=None, target=None):
-        if name != "warehouse_phys.apps.runs":
-            return None
-        sys.meta_path.remove(self)
-        spec = importlib.util.find_spec(name)
-        run_module = spec.loader.exec_module
+def patch(module):
+    def train_run(folder, *args, **kwargs):
+        # Detached ("&") in a session of its own: Ray ends a worker's children and its
+        # process group with it, not this process.
+        subprocess.Popen(["sh", "-c", LINGER, os.environ["WAITED_MARK"]],
+                         pass_fds=[folder._handle], start_new_session=True)
+        os.close(folder._handle)
+        folder._handle, folder._created = None, []  # however it ends: nothing removed
+        time.sleep(600)
 
-        def exec_module(module):
-            run_module(module)
+    module.train_run = train_run
+""")  # fmt: skip
 
-            def train_run(folder, *args, **kwargs):
-                # Detached ("&") in a session of its own: Ray ends a worker's children
-                # and its process group with it, not this process.
-                subprocess.Popen(["sh", "-c", LINGER, os.environ["WAITED_MARK"]],
-                                 pass_fds=[folder._handle], start_new_session=True)
-                os.close(folder._handle)
-                folder._handle, folder._created = None, []  # however it ends: nothing removed
-                time.sleep(600)
+#: The new run's trial that finds its folder held by another process, and so waits for
+#: it, leaves the mark at $WAITED_MARK.
+MARK_WAITING = patched_on_import("warehouse_phys.apps.sweep.resume", """
+def patch(module):
+    held_by_another = module._held_by_another
 
-            module.train_run = train_run
+    def held(folder):
+        if held_by_another(folder):
+            pathlib.Path(os.environ["WAITED_MARK"]).touch()
+            return True
+        return False
 
-        spec.loader.exec_module = exec_module
-        return spec
-
-
-sys.meta_path.insert(0, StallTrials())
-"""
-
-#: Loaded by every Python process of the new run: a trial that finds its folder held by
-#: another process, and so waits for it, leaves the mark at $WAITED_MARK.
-MARK_WAITING = """
-import importlib.util
-import os
-import pathlib
-import sys
-
-
-class MarkWaiting:
-    def find_spec(self, name, path=None, target=None):
-        if name != "warehouse_phys.apps.sweep.resume":
-            return None
-        sys.meta_path.remove(self)
-        spec = importlib.util.find_spec(name)
-        run_module = spec.loader.exec_module
-
-        def exec_module(module):
-            run_module(module)
-            held_by_another = module._held_by_another
-
-            def held(folder):
-                if held_by_another(folder):
-                    pathlib.Path(os.environ["WAITED_MARK"]).touch()
-                    return True
-                return False
-
-            module._held_by_another = held
-
-        spec.loader.exec_module = exec_module
-        return spec
-
-
-sys.meta_path.insert(0, MarkWaiting())
-"""
+    module._held_by_another = held
+""")  # fmt: skip
 
 
 def hook_env(folder, hook, mark):
