@@ -3,7 +3,6 @@ own collision verdicts are the swept-square rule's, the kit's run of the entry i
 package's own simulation of it, the adapters on the kit's MAPF types, and the command."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -129,20 +128,21 @@ def capped_kit_run(tmp_path_factory):
     """``python -m warehouse_phys.startkit run --only ours`` of the station instance with
     ``--scheduler assignment-capped``, 120 ticks: the kit's own run of the entry (its
     ``lifelong``, through :func:`run_kit` with the entry's settings), once for the two tests
-    that read it; the instance and the command's argument list, less ``--only``."""
+    that read it; the instance, the command's argument list less ``--only``, its output
+    folder and its exit status."""
     built_kit()
     folder = tmp_path_factory.mktemp("capped")
     instance = station_instance()
     path = write_instance(instance, folder / "instance" / "stations.json")
-    argv = ["run", str(path), "--kit", str(KIT), "--ticks", "120", "--out", str(folder / "out"),
+    out = folder / "out"
+    argv = ["run", str(path), "--kit", str(KIT), "--ticks", "120", "--out", str(out),
             "--scheduler", "assignment-capped"]  # fmt: skip
     status = startkit.main([*argv, "--only", "ours"])
-    return instance, argv, status
+    return instance, argv, out, status
 
 
 def test_the_kit_runs_the_entry_with_the_capped_scheduler_as_the_package_does(capped_kit_run):
-    instance, argv, status = capped_kit_run
-    out = Path(argv[argv.index("--out") + 1])
+    instance, _, out, status = capped_kit_run
     assert status == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["scheduler"] == "assignment-capped"
@@ -238,8 +238,7 @@ def test_the_command_runs_the_three_and_writes_their_summary(tmp_path, capsys):
 
 
 def test_the_command_runs_the_entry_and_simulate_with_the_same_scheduler(capped_kit_run, capsys):
-    _, argv, status = capped_kit_run  # --only ours: the kit's run of the entry
-    out = Path(argv[argv.index("--out") + 1])
+    _, argv, out, status = capped_kit_run  # --only ours: the kit's run of the entry
     assert status == 0
     # simulate replays the delays of ours
     assert startkit.main([*argv, "--only", "simulate"]) == 0, capsys.readouterr().out
