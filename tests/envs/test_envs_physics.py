@@ -164,16 +164,13 @@ def test_long_run_stays_on_the_floor_bounded_and_equal_to_the_grid_twin(floor):
     grid = gym.make(GRID_ID, max_episode_steps=60, **kwargs)
     phys = gym.make(PHYS_ID, max_episode_steps=60, record_path=True, **kwargs)
     unwrapped = phys.unwrapped
-    shelves = unwrapped.grid.shelves
     radius = unwrapped.physics.robot_radius / unwrapped.physics.cell_size
     # The body's centre stays inside the walls, less its radius and one step of overlap.
     overlap = unwrapped.physics.max_speed * unwrapped.physics.dt / unwrapped.physics.cell_size
     low = -0.5 + radius - overlap
     high = np.array([unwrapped.grid_rows, unwrapped.grid_cols]) - 0.5 - radius + overlap
     # The shelves' cells, with a ring of cells round the floor (a body a little past a wall).
-    in_shelf = np.zeros((unwrapped.grid_rows + 2, unwrapped.grid_cols + 2), dtype=bool)
-    for r, c in shelves:
-        in_shelf[r + 1, c + 1] = True
+    in_shelf = np.pad(unwrapped.grid.shelf_mask, 1)
     grid.reset(seed=5)
     phys.reset(seed=5)
     episodes, worst, memory_after_warmup = 0, 0.0, None
