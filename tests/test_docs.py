@@ -204,6 +204,8 @@ def test_a_broken_reference_or_link_fails_the_build(tmp_path):
     assert "warehouse_phys.no_such_function" in warnings
     assert "no-such-page" in warnings
     assert "numpy.ndarray" not in warnings
+    page = (tmp_path / "html" / "index.html").read_text()  # written all the same (--keep-going)
+    assert '<span class="pre">numpy.ndarray</span></code> is another' in page  # as text
 
 
 def test_the_docs_have_examples_of_both_kinds():
