@@ -12,7 +12,8 @@ from warehouse_phys.planners.guidance_config import MAX_LANE_PATHS, GuidanceConf
      {"turn_traffic_weight": -0.5}, {"turn_contraflow_weight": -1.0},
      {"turn_lane_paths": -1}, {"turn_lane_paths": MAX_LANE_PATHS + 1},
      {"turn_lane_paths": 1.5}, {"turn_lane_paths": True}, {"floor_lane_paths": -1},
-     {"floor_lane_paths": 2.0}, {"search_batch": 0}, {"workers": 0}, {"workers": 65},
+     {"floor_lane_paths": 2.0}, {"search_batch": 0}, {"search_batch": 2.0},
+     {"first_search_batch": 0}, {"first_search_batch": True}, {"workers": 0}, {"workers": 65},
      {"reroute": -1}, {"reroute": 2.0}, {"reroute": True}],
 )  # fmt: skip
 def test_nonsense_guidance_is_refused(bad):

@@ -13,6 +13,7 @@ from tests.planners.test_guidance import play
 from warehouse_phys.envs import fleet
 from warehouse_phys.planners import graph_search
 from warehouse_phys.planners.guide_searches import MAX_WORKERS, GuideSearches
+from warehouse_phys.planners.traffic_guidance import TrafficGuidance
 from warehouse_phys.rl.fleet_planners import planner_policy
 
 
@@ -54,6 +55,41 @@ def test_the_guidance_plans_the_same_on_any_number_of_threads():
             for w in (1, 2, 4)]  # fmt: skip
     assert runs[0] == runs[1] == runs[2]
     assert runs[0][0] == 0
+
+
+def test_the_first_step_searches_in_batches_of_its_own(monkeypatch):
+    """``first_search_batch``: the first step's searches (every robot's first guide path)
+    run in batches of that size, later steps' in ``search_batch``'s; the same plans on any
+    number of threads."""
+    batches: list[list[int]] = []  # each step's batch sizes
+    update, search = TrafficGuidance.update, GuideSearches.search
+
+    def spy_update(self, *args, **kwargs):
+        batches.append([])
+        return update(self, *args, **kwargs)
+
+    def spy_search(self, graph, flow, lanes, sources, *args):
+        batches[-1].append(len(sources))
+        return search(self, graph, flow, lanes, sources, *args)
+
+    monkeypatch.setattr(TrafficGuidance, "update", spy_update)
+    monkeypatch.setattr(GuideSearches, "search", spy_search)
+    env = fleet.parallel_env(num_robots=64, layout="warehouse", lifelong=True, max_cycles=30,
+                             moves="rotate")  # fmt: skip
+    runs = []
+    for workers in (1, 2):
+        batches.clear()
+        policy = planner_policy("guided", 0, first_search_batch=8, workers=workers)
+        runs.append(play(env, policy, 0, 30))
+        assert batches[0] == [8] * 8  # every robot's first guide path, 8 at a time
+        later = [size for step in batches[1:] for size in step]
+        assert later
+        assert set(later) == {1}
+    assert runs[0] == runs[1]
+    assert runs[0][0] == 0
+    batches.clear()
+    assert play(env, planner_policy("guided", 0), 0, 30) != runs[0]  # the batches plan otherwise
+    assert batches[0] == [1] * 64
 
 
 def test_workers_out_of_range_are_refused():

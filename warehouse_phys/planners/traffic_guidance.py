@@ -54,9 +54,9 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   values), so a step is always PIBT's, and every plan traffic grants. The first step,
   when every robot needs its first guide path, can have a bound of its own
   (``first_time_limit``; ``math.inf`` for none). The searches run in batches of
-  ``search_batch`` against one flow, on ``workers`` threads
-  (:mod:`~warehouse_phys.planners.guide_searches`): the same paths for any number of
-  threads.
+  ``search_batch`` (the first step's: ``first_search_batch``) against one flow, on
+  ``workers`` threads (:mod:`~warehouse_phys.planners.guide_searches`): the same paths
+  for any number of threads.
 
 Every knob is a field of :class:`~warehouse_phys.planners.guidance_config.GuidanceConfig`;
 the guide paths' searches and the flow's bookkeeping are compiled in
@@ -179,9 +179,11 @@ class TrafficGuidance:
                 raise ValueError("a new fleet needs a new TrafficGuidance")
             self._paths = GuidePaths.empty(len(here))
         self._hold(np.sort(np.asarray([] if held is None else held, dtype=np.int64)))
-        limit = self.config.time_limit
+        limit, batch = self.config.time_limit, self.config.search_batch
         if self._first and self.config.first_time_limit is not None:
             limit = self.config.first_time_limit
+        if self._first and self.config.first_search_batch is not None:
+            batch = self.config.first_search_batch
         self._first = False
         if limit is not None:
             deadline = min(time.perf_counter() + limit, math.inf if deadline is None else deadline)
@@ -204,7 +206,7 @@ class TrafficGuidance:
                 self.lanes[:] = self._laid_lanes + self.learner.lanes()
         if facing is not None and self.learner is not None and self.learner.observe(column):
             self.lanes[:] = self._laid_lanes + self.learner.lanes()
-        self._search_paths(column, status, active, deadline)
+        self._search_paths(column, status, active, deadline, batch)
         self._guided = status == 0
         return self._values(here, goal, column, self._guided, distances)
 
@@ -239,11 +241,16 @@ class TrafficGuidance:
         return values
 
     def _search_paths(
-        self, column: np.ndarray, status: np.ndarray, active: np.ndarray, deadline: float | None
+        self,
+        column: np.ndarray,
+        status: np.ndarray,
+        active: np.ndarray,
+        deadline: float | None,
+        batch_size: int,
     ) -> None:
         """Search the guide paths of the active robots that need one (``status`` 1), then
-        refresh ``refresh`` others in turn, within the step's bounds; ``status`` becomes 0
-        for every robot that has a guide path after."""
+        refresh ``refresh`` others in turn, in batches of ``batch_size`` within the step's
+        bounds; ``status`` becomes 0 for every robot that has a guide path after."""
         n = len(column)
         order = np.roll(np.arange(n), -self._turn)  # who comes first turns round the fleet
         reachable = self._column[self._paths.goal[order]] >= 0
@@ -262,7 +269,7 @@ class TrafficGuidance:
                 if deadline is not None and self.timed_out:  # the next step starts there
                     self._turn = robots[self.searches]
                 break
-            size = self.config.search_batch
+            size = batch_size
             if budget is not None:
                 size = min(size, budget - self.searches)
             batch = robots[self.searches : self.searches + size]
