@@ -9,13 +9,15 @@ import numpy as np
 import pytest
 
 from warehouse_phys import evaluate as evaluate_cli
+from warehouse_phys.apps.evaluate import suite
 from warehouse_phys.apps.evaluate.best_known import (
     best_known_for,
     main_round_instances,
     read_best_known,
 )
+from warehouse_phys.apps.evaluate.checkpoints import checkpoint_path
 from warehouse_phys.apps.evaluate.report import RESULTS_CSV, RESULTS_MD, RESULTS_PNG, write_results
-from warehouse_phys.apps.evaluate.suite import Job, finished_rows, run_job, write_row
+from warehouse_phys.apps.evaluate.suite import RUNS_DIR, Job, finished_rows, run_job, write_row
 from warehouse_phys.lorr.instances import LorrInstance, write_instance
 from warehouse_phys.world.grid import WarehouseGrid
 
@@ -151,11 +153,33 @@ def test_without_ray_the_suite_exits_2_with_the_install_line_and_writes_nothing(
     assert not out.exists()
 
 
-def test_a_suite_on_ray_writes_its_table_and_resumes(tmp_path, capsys):
+def killed_after(step, job, folder, monkeypatch):
+    """Play ``job`` into the suite's ``folder``, saving its state at every step, until the
+    state after ``step`` is saved; the checkpoint's path."""
+    save = suite.save_checkpoint
+
+    def save_then_stop(path, described, state):
+        save(path, described, state)
+        if len(state.progress.done) == step:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(suite, "save_checkpoint", save_then_stop)
+    folder.mkdir(parents=True, exist_ok=True)
+    with pytest.raises(KeyboardInterrupt):
+        run_job(job.to_dict(), str(folder), checkpoint_seconds=0.0)
+    monkeypatch.undo()
+    return checkpoint_path(folder, RUNS_DIR, job.name)
+
+
+def test_a_suite_on_ray_writes_its_table_and_resumes(tmp_path, capsys, monkeypatch):
     archive = fake_archive(tmp_path / "archive", tiny_instance(tmp_path))
     out = tmp_path / "suite"
     argv = ["--archive", str(archive), "--rounds", "2024", "--planners", "guided,pibt",
             "--steps", "12", "--out", str(out)]  # fmt: skip
+    # A suite killed half way: the pibt run's state after 5 steps is in its folder.
+    jobs = evaluate_cli.jobs_from_args(evaluate_cli.build_parser().parse_args(argv))
+    pibt = next(job for job in jobs if job.planner == "pibt")
+    checkpoint = killed_after(5, pibt, out, monkeypatch)
     started = time.monotonic()
     assert evaluate_cli.main(argv) == 0
     assert time.monotonic() - started < 180
@@ -165,5 +189,12 @@ def test_a_suite_on_ray_writes_its_table_and_resumes(tmp_path, capsys):
     table = (out / RESULTS_MD).read_text()
     assert table.count("| tiny |") == 2
     assert len(list((out / "runs").glob("*.json"))) == 2
+    rows = {row["planner"]: row for row in finished_rows(out, jobs).values()}
+    assert rows["pibt"]["resumed_at"] == [5]  # the Ray worker went on from the checkpoint
+    assert rows["guided"]["resumed"] == 0
+    assert rows["pibt"]["finished"] == run_job(pibt.to_dict())["finished"]
+    assert not checkpoint.exists()  # removed once the row was written
+    checkpoint.write_bytes(b"left by a suite stopped just after the row")
     assert evaluate_cli.main(argv) == 0  # resumes: nothing left to run
     assert "2 already finished, 0 to run" in capsys.readouterr().out
+    assert not checkpoint.exists()

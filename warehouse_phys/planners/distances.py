@@ -32,6 +32,8 @@ pygame. Cells are numbered row by row, ``index = row * cols + col``.
 
 from __future__ import annotations
 
+from types import ModuleType
+
 import numpy as np
 
 from warehouse_phys.world.floor_regions import label_regions
@@ -57,6 +59,13 @@ GUIDE_LANDMARKS = 16
 #: A guide path not asked for in this many requests is dropped when room is needed
 #: [requests]: a fleet's step makes a few.
 GUIDE_STALE_REQUESTS = 64
+
+
+def _graph_search() -> ModuleType:
+    """The compiled searches, imported at first use: only shelved floors need Numba."""
+    from warehouse_phys.planners import graph_search
+
+    return graph_search
 
 
 class DistanceMaps:
@@ -128,10 +137,7 @@ class DistanceMaps:
 
     def _build_search(self, free: np.ndarray, free_cells: np.ndarray) -> None:
         """The move graph, the regions and the guide paths' storage (a few bytes a cell)."""
-        from warehouse_phys.planners import graph_search  # Numba: loaded only for shelved floors
-
-        self._search = graph_search
-        self._graph = graph_search.move_graph(free)
+        self._graph = _graph_search().move_graph(free)
         cell_row, cell_col = np.divmod(free_cells, self.grid.cols)
         self._cell_row, self._cell_col = cell_row.astype(np.int32), cell_col.astype(np.int32)
         labels, _ = label_regions(free)  # regions connected by moves (4-connectivity)
@@ -282,7 +288,7 @@ class DistanceMaps:
             self._goal_of_row[oldest] = -1
             free_rows = np.flatnonzero(self._goal_of_row < 0)
         rows = free_rows[: len(missing)]
-        deep = self._search.fill_distance_rows(
+        deep = _graph_search().fill_distance_rows(
             self._graph, self._column[missing], self._table, rows, _distance_limit()
         )
         done = len(missing) if deep < 0 else deep
@@ -304,10 +310,25 @@ class DistanceMaps:
             [self._last_used, np.zeros(capacity - old, dtype=np.int64)]
         )
 
+    def __getstate__(self) -> dict[str, object]:
+        """What a pickle keeps: the maps' table up to the rows in use, not the address
+        space reserved for all of ``max_bytes`` (reading it would commit it)."""
+        state = self.__dict__.copy()
+        state["_table"] = self._table[: len(self._goal_of_row)]
+        state["_table_rows"] = len(self._table)
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        rows = state.pop("_table_rows")
+        kept = state["_table"]
+        state["_table"] = np.empty((rows, kept.shape[1]), dtype=kept.dtype)
+        state["_table"][: len(kept)] = kept
+        self.__dict__.update(state)
+
     def _guided(self, cells: np.ndarray, goals: np.ndarray, centred: bool) -> np.ndarray:
         """Guided answers for ``cells`` towards ``goals`` (goals without full maps): with
         ``centred``, each goal's group has a centre that its path must run through."""
-        search = self._search
+        search = _graph_search()
         columns = self._column[cells]
         out = np.full(cells.size, UNREACHABLE, dtype=np.int64)
         goal_columns = self._column[goals]
@@ -368,7 +389,7 @@ class DistanceMaps:
             self._generation = 1
         if self._landmarks is None:
             self._landmarks = self._choose_landmarks()
-        moves = int(self._search.shortest_path(
+        moves = int(_graph_search().shortest_path(
             self._graph, self._cell_row, self._cell_col, column, goal_column, self._scratch,
             self._generation, self._path, self._landmarks,
             round(16 * GUIDE_PATH_WEIGHT)))  # fmt: skip
@@ -387,10 +408,10 @@ class DistanceMaps:
         # Cells of other regions count as chosen already: no landmark lands on an island.
         nearest = np.where(largest, UNREACHABLE, 0).astype(np.uint16)
         start = int(np.argmax(largest))  # then the cell farthest from it comes first
-        self._search.fill_distance_rows(self._graph, np.array([start]), table, rows[:1])
+        _graph_search().fill_distance_rows(self._graph, np.array([start]), table, rows[:1])
         chosen = int(np.argmax(np.where(largest, table[0, :-1], 0)))
         for k in range(count):
-            deep = self._search.fill_distance_rows(
+            deep = _graph_search().fill_distance_rows(
                 self._graph, np.array([chosen]), table, rows[k : k + 1], _distance_limit()
             )
             if deep >= 0:  # too deep for 16 bits: the landmarks so far will do

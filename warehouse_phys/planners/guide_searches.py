@@ -137,6 +137,10 @@ class GuideSearches:
             future.result()
         return found
 
+    def __getstate__(self) -> dict[str, object]:
+        """What a pickle keeps: everything but the threads (the next batch starts them)."""
+        return {**self.__dict__, "_pool": None}
+
     def close(self) -> None:
         """Stop the threads (a later batch starts them again)."""
         if self._pool is not None:

@@ -39,38 +39,49 @@ PLANNERS = named.PLANNERS
 TURNING_ONLY = named.TURNING_ONLY
 
 
-def pibt_policy(seed: int = 0) -> FleetPolicy:
-    """A fleet policy (``FleetPolicy``) that plans with :class:`~warehouse_phys.planners.pibt.PIBT`:
-    stateful across the steps of an episode, started afresh when the environment resets
-    (``env.steps`` back at 0) or another environment calls it. It reads the fleet's public
-    state only: ``grid``, ``robot_cells``, ``package_cells``, ``parked``, ``on_floor``,
-    ``steps``, ``corner_follows``, ``distances``, and for turning robots ``moves`` and
-    ``robot_headings``."""
-    state: dict[str, Any] = {"env": None, "planner": None, "index": {}}
+class PIBTPolicy:
+    """A fleet policy (``FleetPolicy``) that plans with
+    :class:`~warehouse_phys.planners.pibt.PIBT`; :func:`pibt_policy` makes one.
+    ``planner`` is the planner of the episode under way, ``None`` before the first call.
+    A plain object, so that a run's state pickles (the policy with its environment)."""
 
-    def policy(
+    def __init__(self, seed: int = 0) -> None:
+        self.seed = seed
+        self.planner: PIBT | None = None
+        self._env: WarehouseFleetEnv | None = None
+        self._index: dict[str, int] = {}
+
+    def __call__(
+        self,
         env: WarehouseFleetEnv,
         observations: dict[str, np.ndarray],
         infos: dict[str, dict[str, Any]],
     ) -> dict[str, int]:
-        if state["env"] is not env or env.steps == 0:
-            state["env"] = env
-            state["planner"] = PIBT(env.grid, distances=env.distances,
-                                    corner_follows=env.corner_follows, seed=seed,
-                                    moves=getattr(env, "moves", "grid"))  # fmt: skip
-            state["index"] = {agent: i for i, agent in enumerate(env.possible_agents)}
-        planner: PIBT = state["planner"]
-        actions = planner.plan(
+        """Every live robot's action for the next step, from the fleet's public state."""
+        if self._env is not env or env.steps == 0 or self.planner is None:
+            self._env = env
+            self.planner = PIBT(env.grid, distances=env.distances,
+                                corner_follows=env.corner_follows, seed=self.seed,
+                                moves=getattr(env, "moves", "grid"))  # fmt: skip
+            self._index = {agent: i for i, agent in enumerate(env.possible_agents)}
+        actions = self.planner.plan(
             env.robot_cells,
             env.package_cells,
             ~env.parked & env.on_floor,
             env.on_floor,
             headings=getattr(env, "robot_headings", None),
         ).tolist()
-        index = state["index"]
-        return {agent: actions[index[agent]] for agent in env.agents}
+        return {agent: actions[self._index[agent]] for agent in env.agents}
 
-    return policy
+
+def pibt_policy(seed: int = 0) -> FleetPolicy:
+    """A fleet policy (``FleetPolicy``) that plans with :class:`~warehouse_phys.planners.pibt.PIBT`:
+    stateful across the steps of an episode, started afresh when the environment resets
+    (``env.steps`` back at 0) or another environment calls it. It reads the fleet's public
+    state only: ``grid``, ``robot_cells``, ``package_cells``, ``parked``, ``on_floor``,
+    ``steps``, ``corner_follows``, ``distances``, and for turning robots ``moves`` and
+    ``robot_headings`` (a :class:`PIBTPolicy`)."""
+    return PIBTPolicy(seed)
 
 
 class GuidedPIBTPolicy:

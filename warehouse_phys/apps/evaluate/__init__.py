@@ -17,7 +17,9 @@ the competition's Benchmark-Archive (kept outside this repository): each run is 
 beside the instance's best-known solution, and ``--rounds`` adds every main-round
 instance of those years, each for its own simulation time. Every finished run writes its
 row to ``<out>/runs/`` (:mod:`~warehouse_phys.apps.evaluate.suite`); running the same
-command again with the same ``--out`` resumes, running only what is not finished. The
+command again with the same ``--out`` resumes, running only what is not finished, and a
+run killed half way goes on from the state it saved last (every ``--checkpoint-minutes``,
+10 by default: :mod:`~warehouse_phys.apps.evaluate.checkpoints`). The
 suite then writes ``results.csv``, ``results.md`` and ``results.png``
 (:mod:`~warehouse_phys.apps.evaluate.report`).
 
@@ -51,8 +53,9 @@ from warehouse_phys.apps.evaluate.best_known import (
     main_round_instances,
     read_best_known,
 )
+from warehouse_phys.apps.evaluate.checkpoints import checkpoint_path
 from warehouse_phys.apps.evaluate.report import RESULTS_CSV, write_results
-from warehouse_phys.apps.evaluate.suite import Job, finished_rows, run_job, write_row
+from warehouse_phys.apps.evaluate.suite import RUNS_DIR, Job, finished_rows, run_job, write_row
 from warehouse_phys.apps.interrupts import Terminated, stops_on_sigterm
 from warehouse_phys.apps.sweep import INSTALL_RAY
 from warehouse_phys.apps.sweep.on_ray import RayUnavailableError, check_address, ray_session
@@ -91,6 +94,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--address", help="a Ray cluster's host:port (default: a local Ray)")
     parser.add_argument("--cpus-per-run", type=bounded_int(1, "a positive number of CPUs"),
                         default=1, help="CPUs Ray gives each run (default 1)")  # fmt: skip
+    parser.add_argument("--checkpoint-minutes", default=10,
+                        type=bounded_int(0, "a number of minutes (0: none)"),
+                        help="save each run's state this often, and go on from it when the "
+                             "suite runs again (default 10; 0: none)")  # fmt: skip
     parser.add_argument("--quiet", action="store_true", help="no line per finished run")
     return parser
 
@@ -203,6 +210,8 @@ def _run_suite(args: argparse.Namespace, jobs: list[Job], out: Path) -> int:
         except OSError:
             raise UsageError(f"--out {out}: another suite is running in it") from None
         rows = finished_rows(out, jobs)
+        for name in rows:  # a checkpoint left by a suite stopped just after the row
+            checkpoint_path(out, RUNS_DIR, name).unlink(missing_ok=True)
         pending = [job for job in jobs if job.name not in rows]
         if not args.quiet:
             print(f"{len(jobs)} runs in {out}: {len(rows)} already finished, {len(pending)} to run",
@@ -237,13 +246,18 @@ def _run_on_ray(pending: list[Job], out: Path, args: argparse.Namespace) -> dict
     rows: dict[str, dict] = {}
     with ray_session(args.address, args.cpus_per_run):
         remote = ray.remote(num_cpus=args.cpus_per_run, max_calls=1, max_retries=0)(run_job)
-        waiting = {remote.remote(job.to_dict()): job for job in pending}
+        # Each run saves its state into the suite's folder (where its worker sees it: a
+        # local Ray, or a folder the cluster shares) and goes on from it next time.
+        folder = str(out.resolve()) if args.checkpoint_minutes else None
+        seconds = 60.0 * args.checkpoint_minutes
+        waiting = {remote.remote(job.to_dict(), folder, seconds): job for job in pending}
         while waiting:
             ready, _ = ray.wait(list(waiting), num_returns=1)
             job = waiting.pop(ready[0])
             try:
                 row = ray.get(ready[0])
                 write_row(out, row)
+                checkpoint_path(out, RUNS_DIR, job.name).unlink(missing_ok=True)
                 status = f"{row['per_step']:.2f} a step"
                 if row["fraction_of_best"] is not None:
                     status += f", {row['fraction_of_best']:.3f} of the best known"

@@ -13,13 +13,24 @@ suite killed half way resumes where it stopped: a row is written whole
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import json
+import resource
 import statistics
+import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from warehouse_phys.apps.evaluate.checkpoints import (
+    CHECKPOINT_SECONDS,
+    Progress,
+    RunState,
+    checkpoint_path,
+    load_checkpoint,
+    save_checkpoint,
+)
 from warehouse_phys.files.atomic import atomic_write_text
 
 #: The folder of a suite's finished runs, one JSON file each.
@@ -58,39 +69,77 @@ class Job:
         return asdict(self)
 
 
-def run_job(job: dict[str, Any]) -> dict[str, Any]:
+def run_job(
+    job: dict[str, Any],
+    folder: str | None = None,
+    checkpoint_seconds: float = CHECKPOINT_SECONDS,
+) -> dict[str, Any]:
     """Play one job (:meth:`Job.to_dict`) in this process; its row (the module's docstring).
-    Imports its floors here, so that a Ray worker pays for them only when it runs one."""
-    import gc
-    import resource
-    import time
+    Imports its floors here, so that a Ray worker pays for them only when it runs one.
 
-    from warehouse_phys.envs import lorr
+    With the suite's ``folder`` (where this process can write it), the run saves its
+    state there every ``checkpoint_seconds`` of wall time, and starts from the state
+    saved by an earlier run of the same job if there is one
+    (:mod:`~warehouse_phys.apps.evaluate.checkpoints`); the suite removes it once the
+    row is written."""
+    spec = Job(**{**job, "best": tuple(job["best"]) if job.get("best") else None})
+    described = spec.to_dict()
+    checkpoint = None
+    if folder is not None and Path(folder).is_dir():
+        checkpoint = checkpoint_path(Path(folder), RUNS_DIR, spec.name)
+    state = None if checkpoint is None else load_checkpoint(checkpoint, described)
+    instance, scheduled = _instance(spec)
+    if state is None:
+        state = _start(spec, instance, scheduled)
+    else:
+        state.progress.resumed_at.append(len(state.progress.done))
+    gc.freeze()  # the floor's objects leave Python's full collections, as simulate does
+    env, policy, progress = state.env, state.policy, state.progress
+    saved = time.monotonic()
+    while len(progress.done) < spec.steps:
+        began_cpu, began_wall = time.process_time(), time.perf_counter()
+        actions = policy(env, state.observations, state.infos)
+        state.observations, _, _, _, state.infos = env.step(actions)
+        progress.cpu.append(time.process_time() - began_cpu)
+        progress.wall.append(time.perf_counter() - began_wall)
+        progress.refused += sum(info["refused"] for info in state.infos.values())
+        progress.done.append(env.errands.tasks_done if scheduled else env.errands.errands_done)
+        left = len(progress.done) < spec.steps
+        if checkpoint is not None and left and time.monotonic() - saved >= checkpoint_seconds:
+            progress.peak_mib = _peak_mib(progress)
+            save_checkpoint(checkpoint, described, state)
+            saved = time.monotonic()
+    return job_row(spec, instance.name, env.num_robots, progress.done, progress.cpu,
+                   progress.wall, progress.refused, _peak_mib(progress),
+                   progress.resumed_at)  # fmt: skip
+
+
+def _instance(spec: Job) -> tuple[Any, bool]:
+    """The job's instance, and whether it is scheduled (2024 on: tasks, not errands)."""
     from warehouse_phys.lorr.instances import SCHEDULED, read_instance
+
+    instance = read_instance(spec.instance)
+    return instance, instance.assignment == SCHEDULED
+
+
+def _start(spec: Job, instance: Any, scheduled: bool) -> RunState:
+    """The job's fleet and policy, reset: its first step not yet played."""
+    from warehouse_phys.envs import lorr
     from warehouse_phys.lorr.scheduling_assignment import scheduler_for
     from warehouse_phys.rl.fleet_planners import planner_policy
 
-    spec = Job(**{**job, "best": tuple(job["best"]) if job.get("best") else None})
-    instance = read_instance(spec.instance)
-    scheduled = instance.assignment == SCHEDULED
     options = {}
     if spec.scheduler and scheduled:  # the scheduler of a 2024 instance (2023 assigns errands)
         options["scheduler"] = scheduler_for(spec.scheduler, instance.grid)
     env = lorr.fleet(instance, moves=spec.moves, max_cycles=spec.steps, **options)
     policy = planner_policy(spec.planner, seed=spec.seed, **spec.guidance)
-    gc.freeze()  # the floor's objects leave Python's full collections, as simulate does
     observations, infos = env.reset(seed=spec.seed)
-    cpu, wall, done, refused = [], [], [], 0
-    for _ in range(spec.steps):
-        began_cpu, began_wall = time.process_time(), time.perf_counter()
-        actions = policy(env, observations, infos)
-        observations, _, _, _, infos = env.step(actions)
-        cpu.append(time.process_time() - began_cpu)
-        wall.append(time.perf_counter() - began_wall)
-        refused += sum(info["refused"] for info in infos.values())
-        done.append(env.errands.tasks_done if scheduled else env.errands.errands_done)
-    peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    return job_row(spec, instance.name, env.num_robots, done, cpu, wall, refused, peak_mib)
+    return RunState(env, policy, observations, infos, Progress())
+
+
+def _peak_mib(progress: Progress) -> float:
+    """The run's peak memory so far, over every process it ran in [MiB]."""
+    return max(progress.peak_mib, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
 
 
 def job_row(
@@ -102,8 +151,11 @@ def job_row(
     wall: list[float],
     refused: int,
     peak_mib: float,
+    resumed_at: list[int] | None = None,
 ) -> dict[str, Any]:
-    """The row of a finished run: ``done`` is what counts, finished by each step's end."""
+    """The row of a finished run: ``done`` is what counts, finished by each step's end;
+    ``resumed_at``, the steps it went on from a checkpoint at (its times a step then come
+    from more than one process)."""
     steps = len(done)
     third = steps // 3
     thirds = [done[third - 1] if third else 0, done[2 * third - 1] if third else 0, done[-1]]
@@ -123,6 +175,7 @@ def job_row(
         "median_step_cpu_s": statistics.median(later_cpu), "max_step_cpu_s": max(later_cpu),
         "median_step_wall_s": statistics.median(later_wall), "max_step_wall_s": max(later_wall),
         "cpu_per_step_s": sum(cpu) / steps, "peak_mib": peak_mib,
+        "resumed": len(resumed_at or []), "resumed_at": list(resumed_at or []),
     }  # fmt: skip
 
 
