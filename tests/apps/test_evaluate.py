@@ -163,11 +163,11 @@ def killed_after(step, job, folder, monkeypatch):
         if len(state.progress.done) == step:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(suite, "save_checkpoint", save_then_stop)
     folder.mkdir(parents=True, exist_ok=True)
-    with pytest.raises(KeyboardInterrupt):
-        run_job(job.to_dict(), str(folder), checkpoint_seconds=0.0)
-    monkeypatch.undo()
+    with monkeypatch.context() as patched:
+        patched.setattr(suite, "save_checkpoint", save_then_stop)
+        with pytest.raises(KeyboardInterrupt):
+            run_job(job.to_dict(), str(folder), checkpoint_seconds=0.0)
     return checkpoint_path(folder, RUNS_DIR, job.name)
 
 
@@ -195,6 +195,9 @@ def test_a_suite_on_ray_writes_its_table_and_resumes(tmp_path, capsys, monkeypat
     assert rows["pibt"]["finished"] == run_job(pibt.to_dict())["finished"]
     assert not checkpoint.exists()  # removed once the row was written
     checkpoint.write_bytes(b"left by a suite stopped just after the row")
+    cut_short = checkpoint.with_name(f".{checkpoint.name}.x1y2.tmp")  # a kill mid-write
+    cut_short.write_bytes(b"half a checkpoint")
     assert evaluate_cli.main(argv) == 0  # resumes: nothing left to run
     assert "2 already finished, 0 to run" in capsys.readouterr().out
     assert not checkpoint.exists()
+    assert not cut_short.exists()

@@ -1,17 +1,21 @@
-"""A run killed half way goes on from its last checkpoint, in another process, and ends
-exactly as the run that was never stopped; a checkpoint of another job, of another version
-of the package, or one that does not read, is not used."""
+"""A run killed half way goes on from its last checkpoint, in another process, and plays
+exactly the steps of the run that was never stopped; a checkpoint of another job, of
+another version of the package, or one that does not read, is not used; a checkpoint
+that cannot be written does not stop the run."""
 
+import json
 import pickle
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
+import numpy as np
 import pytest
 
-from tests.apps.test_evaluate import tiny_instance
+from tests.apps.test_evaluate import killed_after, tiny_instance
 from tests.conftest import ROOT
-from warehouse_phys.apps.evaluate import checkpoints
+from warehouse_phys.apps.evaluate import checkpoints, suite
 from warehouse_phys.apps.evaluate.checkpoints import (
     CHECKPOINT_SUFFIX,
     checkpoint_path,
@@ -21,8 +25,6 @@ from warehouse_phys.apps.evaluate.suite import RUNS_DIR, Job, run_job
 
 #: The step after which the first process dies, and the run's length [steps].
 KILLED_AT, STEPS = 23, 50
-#: What the run counts, besides its times.
-COUNTED = ("finished", "per_step", "first_third", "middle_third", "last_third", "refused")
 
 #: Plays each job of ``sys.argv[1]`` (JSON) into the folder ``sys.argv[2]``, saving its
 #: state after every step, and stops it (an exception, as a kill would) once the state
@@ -60,9 +62,26 @@ def jobs(folder):
     ]
 
 
-def test_a_run_killed_half_way_goes_on_in_another_process_as_if_never_stopped(tmp_path):
-    import json
+def played(job, folder, monkeypatch):
+    """Play ``job`` saving its state at every step; its row, and what each step finished
+    and where the robots stood and faced at the end, as its last save held them."""
+    save, last = suite.save_checkpoint, {}
 
+    def save_and_keep(path, described, state):
+        save(path, described, state)
+        env = state.env
+        last.update(done=list(state.progress.done), cells=np.copy(env.robot_cells),
+                    headings=np.copy(env.robot_headings))  # fmt: skip
+
+    with monkeypatch.context() as patched:
+        patched.setattr(suite, "save_checkpoint", save_and_keep)
+        row = run_job(job.to_dict(), str(folder), checkpoint_seconds=0.0)
+    return row, last
+
+
+def test_a_run_killed_half_way_goes_on_in_another_process_as_if_never_stopped(
+    tmp_path, monkeypatch
+):
     planned = jobs(tmp_path)
     script = textwrap.dedent(KILLER).format(killed=KILLED_AT)
     killed = subprocess.run(
@@ -70,52 +89,78 @@ def test_a_run_killed_half_way_goes_on_in_another_process_as_if_never_stopped(tm
          str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert killed.returncode == 0, killed.stderr
+    (tmp_path / "unbroken").mkdir()
     for job in planned:
         saved = checkpoint_path(tmp_path, RUNS_DIR, job.name)
         # The fleet's distance maps keep the rows in use, not the 900 MiB reserved for them.
         assert saved.stat().st_size < 2**22
-        state = load_checkpoint(saved, job.to_dict())
-        assert len(state.progress.done) == KILLED_AT
-        resumed = run_job(job.to_dict(), str(tmp_path), checkpoint_seconds=0.0)
-        unbroken = run_job(job.to_dict())
+        assert len(load_checkpoint(saved, job.to_dict()).progress.done) == KILLED_AT
+        resumed, resumed_end = played(job, tmp_path, monkeypatch)
+        unbroken, unbroken_end = played(job, tmp_path / "unbroken", monkeypatch)
         assert resumed["resumed_at"] == [KILLED_AT]
         assert unbroken["resumed"] == 0
-        assert [resumed[key] for key in COUNTED] == [unbroken[key] for key in COUNTED]
-        assert resumed["finished"] > 0
-        # The last state saved is the one before the last step; the suite removes it.
-        assert len(load_checkpoint(saved, job.to_dict()).progress.done) == STEPS - 1
+        assert resumed_end["done"] == unbroken_end["done"]  # step by step, to step 49
+        assert resumed_end["done"][-1] > 0
+        assert np.array_equal(resumed_end["cells"], unbroken_end["cells"])
+        assert np.array_equal(resumed_end["headings"], unbroken_end["headings"])
+        assert resumed["finished"] == unbroken["finished"]
+        assert resumed["refused"] == unbroken["refused"] == 0
+        assert not saved.exists()  # a finished run removes its checkpoint
 
 
 @pytest.fixture
-def saved(tmp_path):
-    """A job, and its checkpoint after 5 steps."""
-    job = jobs(tmp_path)[0].to_dict()
-    run_job({**job, "steps": 6}, str(tmp_path), checkpoint_seconds=0.0)  # another job's name
-    path = checkpoint_path(tmp_path, RUNS_DIR, Job(**{**job, "steps": 6}).name)
-    return job, path
+def saved(tmp_path, monkeypatch):
+    """A job of 6 steps, and its checkpoint after 5."""
+    job = Job(**{**jobs(tmp_path)[0].to_dict(), "steps": 6})
+    return job.to_dict(), killed_after(5, job, tmp_path, monkeypatch)
 
 
 def test_a_checkpoint_of_another_job_version_or_form_is_not_used(saved, monkeypatch):
     job, path = saved
-    six = {**job, "steps": 6}
-    assert len(load_checkpoint(path, six).progress.done) == 5
-    assert load_checkpoint(path, job) is None  # another job: 50 steps
-    assert load_checkpoint(path.with_name("none" + CHECKPOINT_SUFFIX), six) is None
-    monkeypatch.setattr(checkpoints, "source_digest", lambda: "another version")
-    assert load_checkpoint(path, six) is None
-    monkeypatch.undo()
+    assert len(load_checkpoint(path, job).progress.done) == 5
+    assert load_checkpoint(path, {**job, "steps": 7}) is None  # another job
+    assert load_checkpoint(path.with_name("none" + CHECKPOINT_SUFFIX), job) is None
+    with monkeypatch.context() as patched:
+        patched.setattr(checkpoints, "source_digest", lambda: "another version")
+        assert load_checkpoint(path, job) is None
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])  # cut short
-    assert load_checkpoint(path, six) is None
+    assert load_checkpoint(path, job) is None
     path.write_bytes(pickle.dumps({"format": 1}))
-    assert load_checkpoint(path, six) is None
+    assert load_checkpoint(path, job) is None
+
+
+def test_a_changed_instance_file_is_another_instance(saved):
+    job, path = saved
+    instance = Path(job["instance"])
+    instance.write_text(instance.read_text() + "\n")
+    assert load_checkpoint(path, job) is None
 
 
 def test_a_run_with_a_checkpoint_it_cannot_use_starts_afresh(saved):
     job, path = saved
-    six = {**job, "steps": 6}
     path.write_bytes(b"not a pickle")
-    row = run_job(six, str(path.parent.parent), checkpoint_seconds=3600.0)
+    row = run_job(job, str(path.parent.parent), checkpoint_seconds=3600.0)
     assert row["resumed"] == 0
-    assert row["steps"] == 6
-    assert [row[key] for key in COUNTED] == [run_job(six)[key] for key in COUNTED]
+    assert row["finished"] == run_job(job)["finished"]
+
+
+def test_a_run_that_saves_none_still_goes_on_from_a_checkpoint(saved, monkeypatch):
+    job, path = saved
+    monkeypatch.setattr(suite, "save_checkpoint", lambda *args: pytest.fail("saved"))
+    row = run_job(job, str(path.parent.parent), checkpoint_seconds=None)
+    assert row["resumed_at"] == [5]
+    assert not path.exists()
+
+
+def test_a_checkpoint_that_cannot_be_written_does_not_stop_the_run(tmp_path, monkeypatch):
+    job = jobs(tmp_path)[0].to_dict()
+
+    def full(*args):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(suite, "save_checkpoint", full)
+    row = run_job(job, str(tmp_path), checkpoint_seconds=0.0)
+    assert row["steps"] == STEPS
+    assert row["checkpoint_error"] == "OSError: [Errno 28] No space left on device"
+    assert run_job(job)["checkpoint_error"] is None

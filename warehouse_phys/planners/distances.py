@@ -311,14 +311,17 @@ class DistanceMaps:
         )
 
     def __getstate__(self) -> dict[str, object]:
-        """What a pickle keeps: the maps' table up to the rows in use, not the address
-        space reserved for all of ``max_bytes`` (reading it would commit it)."""
+        """What a pickle keeps: the maps' table up to the rows handed out so far (in use
+        or freed), not the address space reserved for all of ``max_bytes`` (reading it
+        would commit it)."""
         state = self.__dict__.copy()
         state["_table"] = self._table[: len(self._goal_of_row)]
         state["_table_rows"] = len(self._table)
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
+        """The pickled maps back in a table reserved as :meth:`_grow` reserves it (the
+        rows read and their copy are both in memory for a moment)."""
         rows = state.pop("_table_rows")
         kept = state["_table"]
         state["_table"] = np.empty((rows, kept.shape[1]), dtype=kept.dtype)

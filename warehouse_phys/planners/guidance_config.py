@@ -26,7 +26,7 @@ class GuidanceConfig:
 
     Raises:
         ValueError: for a weight, cost, count or bound out of its range.
-        TypeError: for a lane count or ``reroute`` that is not an int.
+        TypeError: for a lane count, ``reroute`` or a batch size that is not an int.
     """
 
     #: Cost of a move per guide path leaving the cell it enters [moves].
@@ -87,15 +87,17 @@ class GuidanceConfig:
     #: the same for any number of ``workers``.
     search_batch: int = 1
     #: The first step's batches (None: ``search_batch``), when every robot needs its first
-    #: guide path: with ``workers`` threads, a first step of 10,000 searches takes about
-    #: half the wall time on two cores, and only that step plans otherwise.
+    #: guide path, so that ``workers`` threads share that step's searches while later
+    #: steps search ``search_batch`` at a time. Its paths differ from one-at-a-time
+    #: searches', and so does every plan after.
     first_search_batch: int | None = None
     #: Threads that search a batch (:mod:`~warehouse_phys.planners.guide_searches`).
     workers: int = 1
     #: Most guide-path searches in one step (None: no bound).
     max_searches: int | None = None
     #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
-    #: each: the robots left get PIBT's distances (and the run may differ between runs).
+    #: each batch of searches: the robots left get PIBT's distances (and the run may
+    #: differ between runs).
     time_limit: float | None = None
     #: The first step's own bound [s] (``math.inf``: none), when every robot needs its
     #: first guide path (None: ``time_limit`` bounds it too). At 10,000 robots a step's

@@ -19,7 +19,8 @@ instance of those years, each for its own simulation time. Every finished run wr
 row to ``<out>/runs/`` (:mod:`~warehouse_phys.apps.evaluate.suite`); running the same
 command again with the same ``--out`` resumes, running only what is not finished, and a
 run killed half way goes on from the state it saved last (every ``--checkpoint-minutes``,
-10 by default: :mod:`~warehouse_phys.apps.evaluate.checkpoints`). The
+10 by default, 0 for none: :mod:`~warehouse_phys.apps.evaluate.checkpoints`; on a
+cluster, only where its nodes share the folder). The
 suite then writes ``results.csv``, ``results.md`` and ``results.png``
 (:mod:`~warehouse_phys.apps.evaluate.report`).
 
@@ -59,6 +60,7 @@ from warehouse_phys.apps.evaluate.suite import RUNS_DIR, Job, finished_rows, run
 from warehouse_phys.apps.interrupts import Terminated, stops_on_sigterm
 from warehouse_phys.apps.sweep import INSTALL_RAY
 from warehouse_phys.apps.sweep.on_ray import RayUnavailableError, check_address, ray_session
+from warehouse_phys.files.atomic import temporary_files
 from warehouse_phys.lorr.station_cap import STATION_CAP
 
 PROG = "python -m warehouse_phys.evaluate"
@@ -96,8 +98,8 @@ def build_parser() -> argparse.ArgumentParser:
                         default=1, help="CPUs Ray gives each run (default 1)")  # fmt: skip
     parser.add_argument("--checkpoint-minutes", default=10,
                         type=bounded_int(0, "a number of minutes (0: none)"),
-                        help="save each run's state this often, and go on from it when the "
-                             "suite runs again (default 10; 0: none)")  # fmt: skip
+                        help="save each run's state this often, to go on from when the "
+                             "suite runs again (default 10; 0: save none)")  # fmt: skip
     parser.add_argument("--quiet", action="store_true", help="no line per finished run")
     return parser
 
@@ -210,8 +212,13 @@ def _run_suite(args: argparse.Namespace, jobs: list[Job], out: Path) -> int:
         except OSError:
             raise UsageError(f"--out {out}: another suite is running in it") from None
         rows = finished_rows(out, jobs)
-        for name in rows:  # a checkpoint left by a suite stopped just after the row
-            checkpoint_path(out, RUNS_DIR, name).unlink(missing_ok=True)
+        for job in jobs:
+            saved = checkpoint_path(out, RUNS_DIR, job.name)
+            if job.name in rows:  # left by a suite stopped just after the row
+                saved.unlink(missing_ok=True)
+            if saved.parent.is_dir():  # a checkpoint's write cut short by a kill
+                for left in temporary_files(saved.parent, saved.name):
+                    left.unlink(missing_ok=True)
         pending = [job for job in jobs if job.name not in rows]
         if not args.quiet:
             print(f"{len(jobs)} runs in {out}: {len(rows)} already finished, {len(pending)} to run",
@@ -246,10 +253,10 @@ def _run_on_ray(pending: list[Job], out: Path, args: argparse.Namespace) -> dict
     rows: dict[str, dict] = {}
     with ray_session(args.address, args.cpus_per_run):
         remote = ray.remote(num_cpus=args.cpus_per_run, max_calls=1, max_retries=0)(run_job)
-        # Each run saves its state into the suite's folder (where its worker sees it: a
-        # local Ray, or a folder the cluster shares) and goes on from it next time.
-        folder = str(out.resolve()) if args.checkpoint_minutes else None
-        seconds = 60.0 * args.checkpoint_minutes
+        # Each run goes on from the state it saved into the suite's folder, and saves its
+        # own (where its worker sees the folder: a local Ray, or one the cluster shares).
+        folder = str(out.resolve())
+        seconds = 60.0 * args.checkpoint_minutes if args.checkpoint_minutes else None
         waiting = {remote.remote(job.to_dict(), folder, seconds): job for job in pending}
         while waiting:
             ready, _ = ray.wait(list(waiting), num_returns=1)

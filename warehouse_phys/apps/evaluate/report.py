@@ -22,7 +22,7 @@ COLUMNS: dict[str, str] = {
     "fraction_of_best": "{:.3f}", "refused": "{:,}", "first_step_cpu_s": "{:.1f}",
     "median_step_cpu_s": "{:.3f}", "max_step_cpu_s": "{:.2f}", "median_step_wall_s": "{:.3f}",
     "max_step_wall_s": "{:.2f}", "cpu_per_step_s": "{:.3f}", "peak_mib": "{:,.0f}",
-    "resumed": "{}", "error": "{}",
+    "resumed": "{}", "checkpoint_error": "{}", "error": "{}",
 }  # fmt: skip
 
 

@@ -6,9 +6,11 @@ it in the calling process (a Ray worker, in the command) and returns its row: wh
 finished (errands in 2023, tasks in 2024 and later, as the competition counts), the rate
 over each third of the run, the fraction of the best known (the 2026 score's unit: tasks
 a step over the best solution's tasks a step), refused moves, CPU and wall time a step
-and peak memory. :func:`finished_rows` reads the rows a folder already holds, so that a
-suite killed half way resumes where it stopped: a row is written whole
-(:func:`write_row`, atomic) or not at all.
+and peak memory, and how many times it went on from a checkpoint (``resumed``,
+``resumed_at``; :mod:`~warehouse_phys.apps.evaluate.checkpoints`). :func:`finished_rows`
+reads the rows a folder already holds, so that a suite killed half way resumes where it
+stopped: a row is written whole (:func:`write_row`, atomic) or not at all, and a run cut
+short goes on from its last checkpoint.
 """
 
 from __future__ import annotations
@@ -72,16 +74,18 @@ class Job:
 def run_job(
     job: dict[str, Any],
     folder: str | None = None,
-    checkpoint_seconds: float = CHECKPOINT_SECONDS,
+    checkpoint_seconds: float | None = CHECKPOINT_SECONDS,
 ) -> dict[str, Any]:
     """Play one job (:meth:`Job.to_dict`) in this process; its row (the module's docstring).
     Imports its floors here, so that a Ray worker pays for them only when it runs one.
 
-    With the suite's ``folder`` (where this process can write it), the run saves its
-    state there every ``checkpoint_seconds`` of wall time, and starts from the state
-    saved by an earlier run of the same job if there is one
-    (:mod:`~warehouse_phys.apps.evaluate.checkpoints`); the suite removes it once the
-    row is written."""
+    With the suite's ``folder`` (if this process sees it: a local Ray, or a folder the
+    cluster's nodes share), the run starts from the state an earlier run of the same job
+    saved there, if any (:mod:`~warehouse_phys.apps.evaluate.checkpoints`), saves its own
+    every ``checkpoint_seconds`` of wall time (None: never), and removes it once it has
+    played its last step. A checkpoint that cannot be written is skipped (the run goes
+    on, the next one is tried an interval later, and the row says why in
+    ``checkpoint_error``)."""
     spec = Job(**{**job, "best": tuple(job["best"]) if job.get("best") else None})
     described = spec.to_dict()
     checkpoint = None
@@ -95,7 +99,8 @@ def run_job(
         state.progress.resumed_at.append(len(state.progress.done))
     gc.freeze()  # the floor's objects leave Python's full collections, as simulate does
     env, policy, progress = state.env, state.policy, state.progress
-    saved = time.monotonic()
+    saves = checkpoint is not None and checkpoint_seconds is not None
+    saved, error = time.monotonic(), None
     while len(progress.done) < spec.steps:
         began_cpu, began_wall = time.process_time(), time.perf_counter()
         actions = policy(env, state.observations, state.infos)
@@ -105,13 +110,19 @@ def run_job(
         progress.refused += sum(info["refused"] for info in state.infos.values())
         progress.done.append(env.errands.tasks_done if scheduled else env.errands.errands_done)
         left = len(progress.done) < spec.steps
-        if checkpoint is not None and left and time.monotonic() - saved >= checkpoint_seconds:
+        if saves and left and time.monotonic() - saved >= checkpoint_seconds:
             progress.peak_mib = _peak_mib(progress)
-            save_checkpoint(checkpoint, described, state)
+            try:
+                save_checkpoint(checkpoint, described, state)
+            except OSError as failure:  # a full disk, say: the run matters more
+                error = f"{type(failure).__name__}: {failure}"
             saved = time.monotonic()
-    return job_row(spec, instance.name, env.num_robots, progress.done, progress.cpu,
-                   progress.wall, progress.refused, _peak_mib(progress),
-                   progress.resumed_at)  # fmt: skip
+    if checkpoint is not None:
+        checkpoint.unlink(missing_ok=True)
+    row = job_row(spec, instance.name, env.num_robots, progress.done, progress.cpu,
+                  progress.wall, progress.refused, _peak_mib(progress),
+                  progress.resumed_at)  # fmt: skip
+    return {**row, "checkpoint_error": error}
 
 
 def _instance(spec: Job) -> tuple[Any, bool]:
@@ -163,7 +174,11 @@ def job_row(
              (thirds[2] - thirds[1]) / max(steps - 2 * third, 1)]  # fmt: skip
     per_step = done[-1] / steps
     best = None if spec.best is None else spec.best[0] / spec.best[1]
-    later_cpu, later_wall = cpu[1:] or cpu, wall[1:] or wall
+    # The first step, and the first after each resumption, load what later steps reuse
+    # (every robot's first guide path; the compiled code, the threads).
+    warm_ups = {0, *(resumed_at or [])}
+    later_cpu = [t for k, t in enumerate(cpu) if k not in warm_ups] or cpu
+    later_wall = [t for k, t in enumerate(wall) if k not in warm_ups] or wall
     return {
         "name": spec.name, "instance": name, "planner": spec.planner, "seed": spec.seed,
         "moves": spec.moves, "scheduler": spec.scheduler, "guidance": spec.guidance,
