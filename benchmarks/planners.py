@@ -150,10 +150,10 @@ def lorr_run(
                   f"{env.errands.tasks_done / len(done_at):.2f} tasks/step, median "
                   f"{statistics.median(step_s[1:] or step_s) * 1000:.0f} ms/step",
                   file=sys.stderr, flush=True)  # fmt: skip
-        planner = getattr(policy, "planner", None)
-        if planner is not None:
-            searches.append(planner.guidance.searches)
-            unguided += planner.guidance.timed_out
+        guidance = getattr(getattr(policy, "planner", None), "guidance", None)
+        if guidance is not None:  # a guided planner's
+            searches.append(guidance.searches)
+            unguided += guidance.timed_out
     later = step_s[1:] or step_s
     later_wall = wall_s[1:] or wall_s
     last = min(window, steps)
