@@ -19,3 +19,14 @@ from warehouse_phys.planners.guidance_config import MAX_LANE_PATHS, GuidanceConf
 def test_nonsense_guidance_is_refused(bad):
     with pytest.raises((ValueError, TypeError), match=next(iter(bad)).split("_")[0]):
         GuidanceConfig(**bad)
+
+
+def test_the_first_step_searches_in_batches_on_every_core_the_process_may_use(monkeypatch):
+    from warehouse_phys.planners import guidance_config
+
+    assert GuidanceConfig().first_search_batch == guidance_config.FIRST_SEARCH_BATCH == 64
+    monkeypatch.setattr(guidance_config.os, "sched_getaffinity", lambda pid: {3})
+    assert GuidanceConfig().workers == 1  # a process narrowed to one core (taskset)
+    monkeypatch.setattr(guidance_config.os, "sched_getaffinity", lambda pid: set(range(100)))
+    assert GuidanceConfig().workers == guidance_config.MAX_WORKERS
+    assert GuidanceConfig(workers=3).workers == 3

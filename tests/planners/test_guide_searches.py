@@ -88,8 +88,12 @@ def test_the_first_step_searches_in_batches_of_its_own(monkeypatch):
     assert runs[0] == runs[1]
     assert runs[0][0] == 0
     batches.clear()
-    assert play(env, planner_policy("guided", 0), 0, 30) != runs[0]  # the batches plan otherwise
+    one_at_a_time = planner_policy("guided", 0, first_search_batch=None)
+    assert play(env, one_at_a_time, 0, 30) != runs[0]  # the batches plan otherwise
     assert batches[0] == [1] * 64
+    batches.clear()
+    play(env, planner_policy("guided", 0), 0, 30)
+    assert batches[0] == [64]  # by default the first step's searches are one batch of 64
 
 
 def test_workers_out_of_range_are_refused():

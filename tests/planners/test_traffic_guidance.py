@@ -22,7 +22,13 @@ def test_robots_heading_opposite_ways_get_aisles_of_their_own():
     grid = WarehouseGrid.from_layout(TWO_AISLES)
     here = np.array([0 * 8 + 0, 0 * 8 + 7])
     goal = np.array([0 * 8 + 7, 0 * 8 + 0])
-    for config, apart in ((GuidanceConfig(), True), (GuidanceConfig(contraflow_weight=0), False)):
+    # Searched one at a time (not in one batch, as a first step's are by default), so that
+    # the second sees the first's path.
+    # One search at a time, so that the second sees the first's path (by default a first
+    # step's searches are one batch, blind to each other).
+    priced = GuidanceConfig(first_search_batch=None)
+    unpriced = GuidanceConfig(contraflow_weight=0, first_search_batch=None)
+    for config, apart in ((priced, True), (unpriced, False)):
         guidance = TrafficGuidance(grid, config)
         guidance.update(here, goal, np.ones(2, dtype=bool))
         paths = guidance._paths
@@ -43,7 +49,7 @@ def test_contraflow_costs_turning_robots_more(turn_contraflow_weight, facing, ap
     takes the bottom aisle, turns and all, rather than meet the first head-on."""
     grid = WarehouseGrid.from_layout(TWO_AISLES)
     config = GuidanceConfig(contraflow_weight=0.1, turn_contraflow_weight=turn_contraflow_weight,
-                            turn_lane_paths=0)  # fmt: skip
+                            turn_lane_paths=0, first_search_batch=None)  # fmt: skip
     guidance = TrafficGuidance(grid, config)
     guidance.update(np.array([0, 7]), np.array([7, 0]), np.ones(2, dtype=bool),
                     facing=None if facing is None else np.array(facing))  # fmt: skip

@@ -10,13 +10,30 @@ docstring (:mod:`warehouse_phys.planners.guidance`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
 
 import numpy as np
 
 #: Most phantom guide paths a lane may carry (``turn_lane_paths``); far fewer already
 #: price driving against a lane above any way round.
 MAX_LANE_PATHS = 1000
+#: Guide paths a batch of the first step searches by default (``first_search_batch``):
+#: enough for every thread of a many-core machine to have several.
+FIRST_SEARCH_BATCH = 64
+#: Most threads that search a batch (``workers``).
+MAX_WORKERS = 64
+
+
+def default_workers() -> int:
+    """The guide searches' threads by default: the cores this process may run on (its
+    CPU affinity, which a container or ``taskset`` may narrow), at most
+    :data:`MAX_WORKERS`."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # no affinity on this system (macOS)
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, MAX_WORKERS))
 
 
 @dataclass(frozen=True)
@@ -89,10 +106,15 @@ class GuidanceConfig:
     #: The first step's batches (None: ``search_batch``), when every robot needs its first
     #: guide path, so that ``workers`` threads share that step's searches while later
     #: steps search ``search_batch`` at a time. Its paths differ from one-at-a-time
-    #: searches', and so does every plan after.
-    first_search_batch: int | None = None
-    #: Threads that search a batch (:mod:`~warehouse_phys.planners.guide_searches`).
-    workers: int = 1
+    #: searches', and so does every plan after; with 10,000 turning robots the runs
+    #: finished as many (MR23-I-10: 37.35 errands a step over 5,000 steps either way;
+    #: MR23-I-06: 38.25 against 38.27), and two threads took the first step from 87 s
+    #: to 50 s of wall time on MR23-I-06 (the documentation's LoRR page, ``docs/lorr.md``).
+    first_search_batch: int | None = FIRST_SEARCH_BATCH
+    #: Threads that search a batch (:mod:`~warehouse_phys.planners.guide_searches`):
+    #: by default the cores this process may run on (:func:`default_workers`). The plans
+    #: are the same for any number.
+    workers: int = field(default_factory=default_workers)
     #: Most guide-path searches in one step (None: no bound).
     max_searches: int | None = None
     #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
@@ -133,8 +155,8 @@ class GuidanceConfig:
                 raise TypeError(f"{name} must be an int, got {size!r}")
             if size < 1:
                 raise ValueError(f"{name} must be >= 1, got {size!r}")
-        if not 1 <= self.workers <= 64:
-            raise ValueError(f"workers must be in 1..64, got {self.workers!r}")
+        if not 1 <= self.workers <= MAX_WORKERS:
+            raise ValueError(f"workers must be in 1..{MAX_WORKERS}, got {self.workers!r}")
         if isinstance(self.reroute, bool) or not isinstance(self.reroute, int | np.integer):
             raise TypeError(f"reroute must be an int, got {self.reroute!r}")
         if self.reroute < 0:

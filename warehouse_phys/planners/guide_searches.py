@@ -22,10 +22,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from warehouse_phys.planners import traffic_flow
+from warehouse_phys.planners import guidance_config, traffic_flow
 
-#: Most threads one :class:`GuideSearches` runs.
-MAX_WORKERS = 64
+#: Most threads one :class:`GuideSearches` runs (the guidance's bound).
+MAX_WORKERS = guidance_config.MAX_WORKERS
 
 
 @dataclass
