@@ -42,12 +42,14 @@ TURNING_ONLY = named.TURNING_ONLY
 class PIBTPolicy:
     """A fleet policy (``FleetPolicy``) that plans with
     :class:`~warehouse_phys.planners.pibt.PIBT`; :func:`pibt_policy` makes one.
-    ``planner`` is the planner of the episode under way, ``None`` before the first call.
-    A plain object, so that a run's state pickles (the policy with its environment)."""
+    ``planner`` is the planner of the episode under way, ``None`` before the first call:
+    a new one when the environment resets (``env.steps`` back at 0) or another
+    environment calls it. A plain object, so that a run's state pickles (the policy with
+    its environment)."""
 
     def __init__(self, seed: int = 0) -> None:
         self.seed = seed
-        self.planner: PIBT | None = None
+        self.planner: PIBT | GuidedPIBT | None = None
         self._env: WarehouseFleetEnv | None = None
         self._index: dict[str, int] = {}
 
@@ -60,9 +62,7 @@ class PIBTPolicy:
         """Every live robot's action for the next step, from the fleet's public state."""
         if self._env is not env or env.steps == 0 or self.planner is None:
             self._env = env
-            self.planner = PIBT(env.grid, distances=env.distances,
-                                corner_follows=env.corner_follows, seed=self.seed,
-                                moves=getattr(env, "moves", "grid"))  # fmt: skip
+            self.planner = self._new_planner(env)
             self._index = {agent: i for i, agent in enumerate(env.possible_agents)}
         actions = self.planner.plan(
             env.robot_cells,
@@ -72,6 +72,11 @@ class PIBTPolicy:
             headings=getattr(env, "robot_headings", None),
         ).tolist()
         return {agent: actions[self._index[agent]] for agent in env.agents}
+
+    def _new_planner(self, env: WarehouseFleetEnv) -> PIBT | GuidedPIBT:
+        """The planner of a new episode on ``env``."""
+        return PIBT(env.grid, distances=env.distances, corner_follows=env.corner_follows,
+                    seed=self.seed, moves=getattr(env, "moves", "grid"))  # fmt: skip
 
 
 def pibt_policy(seed: int = 0) -> FleetPolicy:
@@ -84,7 +89,7 @@ def pibt_policy(seed: int = 0) -> FleetPolicy:
     return PIBTPolicy(seed)
 
 
-class GuidedPIBTPolicy:
+class GuidedPIBTPolicy(PIBTPolicy):
     """A fleet policy (``FleetPolicy``) that plans with
     :class:`~warehouse_phys.planners.guidance.GuidedPIBT`; :func:`guided_pibt_policy` makes
     one. ``planner`` is the planner of the episode under way (its ``guidance`` counts the
@@ -97,42 +102,22 @@ class GuidedPIBTPolicy:
         operations: int = 0,
         repair: dict[str, Any] | None = None,
     ) -> None:
-        self.seed = seed
+        super().__init__(seed)
         self.config = config
         self.operations = operations
         self.repair = repair
-        self.planner: GuidedPIBT | None = None
-        self._env: WarehouseFleetEnv | None = None
-        self._index: dict[str, int] = {}
 
-    def __call__(
-        self,
-        env: WarehouseFleetEnv,
-        observations: dict[str, np.ndarray],
-        infos: dict[str, dict[str, Any]],
-    ) -> dict[str, int]:
-        """Every live robot's action for the next step, from the fleet's public state."""
-        if self._env is not env or env.steps == 0 or self.planner is None:
-            self._env = env
-            self.planner = GuidedPIBT(
-                env.grid,
-                distances=env.distances,
-                corner_follows=env.corner_follows,
-                seed=self.seed,
-                moves=getattr(env, "moves", "grid"),
-                config=self.config,
-                operations=self.operations,
-                repair=None if self.repair is None else WindowRepair(seed=self.seed, **self.repair),
-            )
-            self._index = {agent: i for i, agent in enumerate(env.possible_agents)}
-        actions = self.planner.plan(
-            env.robot_cells,
-            env.package_cells,
-            ~env.parked & env.on_floor,
-            env.on_floor,
-            headings=getattr(env, "robot_headings", None),
-        ).tolist()
-        return {agent: actions[self._index[agent]] for agent in env.agents}
+    def _new_planner(self, env: WarehouseFleetEnv) -> GuidedPIBT:
+        return GuidedPIBT(
+            env.grid,
+            distances=env.distances,
+            corner_follows=env.corner_follows,
+            seed=self.seed,
+            moves=getattr(env, "moves", "grid"),
+            config=self.config,
+            operations=self.operations,
+            repair=None if self.repair is None else WindowRepair(seed=self.seed, **self.repair),
+        )
 
 
 def guided_pibt_policy(
