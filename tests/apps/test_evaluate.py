@@ -18,6 +18,7 @@ from warehouse_phys.apps.evaluate.best_known import (
 from warehouse_phys.apps.evaluate.checkpoints import checkpoint_path
 from warehouse_phys.apps.evaluate.report import RESULTS_CSV, RESULTS_MD, RESULTS_PNG, write_results
 from warehouse_phys.apps.evaluate.suite import RUNS_DIR, Job, finished_rows, run_job, write_row
+from warehouse_phys.apps.interrupts import Terminated
 from warehouse_phys.lorr.instances import LorrInstance, write_instance
 from warehouse_phys.world.grid import WarehouseGrid
 
@@ -201,3 +202,27 @@ def test_a_suite_on_ray_writes_its_table_and_resumes(tmp_path, capsys, monkeypat
     assert "2 already finished, 0 to run" in capsys.readouterr().out
     assert not checkpoint.exists()
     assert not cut_short.exists()
+
+
+@pytest.mark.parametrize(("stop", "status", "word"), [
+    (KeyboardInterrupt, 130, "interrupted"), (Terminated, 143, "terminated"),
+])  # fmt: skip
+def test_a_stopped_suite_says_how_to_resume_and_keeps_what_it_saved(
+    tmp_path, capsys, monkeypatch, stop, status, word
+):
+    out = tmp_path / "suite"
+    argv = ["--instances", str(tiny_instance(tmp_path)), "--planners", "pibt", "--steps", "9",
+            "--out", str(out)]  # fmt: skip
+    [job] = evaluate_cli.jobs_from_args(evaluate_cli.build_parser().parse_args(argv))
+    checkpoint = killed_after(4, job, out, monkeypatch)  # a run cut short, saved at step 4
+
+    def stopped(*args):
+        raise stop
+
+    monkeypatch.setattr(evaluate_cli, "_run_on_ray", stopped)
+    assert evaluate_cli.main(argv) == status
+    assert capsys.readouterr().err.strip() == (
+        f"{PROG}: {word}; finished runs are kept and the others saved every "
+        "--checkpoint-minutes: run the same command again to resume"
+    )
+    assert checkpoint.exists()  # kept for the next run

@@ -195,8 +195,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2 if refused else 1
     except KeyboardInterrupt as interrupt:
         terminated = isinstance(interrupt, Terminated)
-        print(f"{PROG}: {'terminated' if terminated else 'interrupted'}; finished runs are kept: "
-              "run the same command again to resume", file=sys.stderr)  # fmt: skip
+        print(f"{PROG}: {'terminated' if terminated else 'interrupted'}; finished runs are kept "
+              "and the others saved every --checkpoint-minutes: run the same command again "
+              "to resume", file=sys.stderr)  # fmt: skip
         return 128 + (signal.SIGTERM if terminated else signal.SIGINT)
 
 
