@@ -55,7 +55,10 @@ def play(
     every action."""
     env = parallel_env(layout=str(map_path(floor)), num_robots=robots, lifelong=True,
                        max_cycles=steps, moves="rotate")  # fmt: skip
-    policy = planner_policy("guided", seed=0, search_batch=batch, workers=workers)
+    # Every step searched ``batch`` at a time, the first too (whose own default batches
+    # would otherwise make the sequential run's first step a batched one).
+    policy = planner_policy("guided", seed=0, search_batch=batch,
+                            first_search_batch=None, workers=workers)  # fmt: skip
     observations, infos = env.reset(seed=0)
     digest = hashlib.sha256()
     wall, cpu, delivered = [], [], 0

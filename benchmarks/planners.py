@@ -1,6 +1,8 @@
 """Guided PIBT against plain PIBT: the LoRR 10,000-robot instance, the Kiva floor, scaling.
 
-Three measurements, one core (numpy's threads held to one), CPU time (``time.process_time``):
+Three measurements, one core (numpy's threads held to one; a fleet's first guide paths
+are searched on every core, :data:`~warehouse_phys.planners.guidance_config.FIRST_SEARCH_BATCH`),
+CPU time (``time.process_time``, every thread's):
 
 - **MR23-I-10** (League of Robot Runners 2023, 10,000 robots on warehouse_large, four
   directions; record 38.9 errands a step with turning robots, plain PIBT about 22): each
@@ -397,7 +399,8 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
                        args.scheduler, args.progress)  # fmt: skip
         print(json.dumps(run))
         return {}
-    print(f"CPU time, one core; Python {platform.python_version()}, {os.cpu_count()} CPUs",
+    print(f"CPU time, one core (the first step's guide searches on every core); Python "
+          f"{platform.python_version()}, {os.cpu_count()} CPUs",
           flush=True)  # fmt: skip
     runs, flow = [], None
     if not args.skip_lorr and not args.instance.exists():

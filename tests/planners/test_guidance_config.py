@@ -13,7 +13,8 @@ from warehouse_phys.planners.guidance_config import MAX_LANE_PATHS, GuidanceConf
      {"turn_lane_paths": -1}, {"turn_lane_paths": MAX_LANE_PATHS + 1},
      {"turn_lane_paths": 1.5}, {"turn_lane_paths": True}, {"floor_lane_paths": -1},
      {"floor_lane_paths": 2.0}, {"search_batch": 0}, {"search_batch": 2.0},
-     {"first_search_batch": 0}, {"first_search_batch": True}, {"workers": 0}, {"workers": 65},
+     {"first_search_batch": 0}, {"first_search_batch": True}, {"workers": 2.5},
+     {"workers": 0}, {"workers": 65},
      {"reroute": -1}, {"reroute": 2.0}, {"reroute": True}],
 )  # fmt: skip
 def test_nonsense_guidance_is_refused(bad):
@@ -30,3 +31,6 @@ def test_the_first_step_searches_in_batches_on_every_core_the_process_may_use(mo
     monkeypatch.setattr(guidance_config.os, "sched_getaffinity", lambda pid: set(range(100)))
     assert GuidanceConfig().workers == guidance_config.MAX_WORKERS
     assert GuidanceConfig(workers=3).workers == 3
+    monkeypatch.delattr(guidance_config.os, "sched_getaffinity")  # no affinity (macOS)
+    monkeypatch.setattr(guidance_config.os, "cpu_count", lambda: 6)
+    assert GuidanceConfig().workers == 6

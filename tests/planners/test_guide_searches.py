@@ -3,6 +3,8 @@ on the floor from its source to its goal, and the guidance's plans the same what
 threads."""
 
 import itertools
+import multiprocessing
+import os
 
 import numpy as np
 import pytest
@@ -12,9 +14,11 @@ from hypothesis import strategies as st
 from tests.planners.test_guidance import play
 from warehouse_phys.envs import fleet
 from warehouse_phys.planners import graph_search
+from warehouse_phys.planners.guidance_config import GuidanceConfig
 from warehouse_phys.planners.guide_searches import MAX_WORKERS, GuideSearches
 from warehouse_phys.planners.traffic_guidance import TrafficGuidance
 from warehouse_phys.rl.fleet_planners import planner_policy
+from warehouse_phys.world.grid import WarehouseGrid
 
 
 @settings(max_examples=30, deadline=None)
@@ -57,43 +61,74 @@ def test_the_guidance_plans_the_same_on_any_number_of_threads():
     assert runs[0][0] == 0
 
 
-def test_the_first_step_searches_in_batches_of_its_own(monkeypatch):
-    """``first_search_batch``: the first step's searches (every robot's first guide path)
-    run in batches of that size, later steps' in ``search_batch``'s; the same plans on any
-    number of threads."""
-    batches: list[list[int]] = []  # each step's batch sizes
-    update, search = TrafficGuidance.update, GuideSearches.search
+def first_step_batches(monkeypatch, robots, steps=2, **config):
+    """Each step's batch sizes, and every robot's guide path after the steps, for
+    ``robots`` robots crossing a 40 x 40 open floor (turning, new goals every step)."""
+    batches: list[list[int]] = []
+    search = GuideSearches.search
 
-    def spy_update(self, *args, **kwargs):
-        batches.append([])
-        return update(self, *args, **kwargs)
-
-    def spy_search(self, graph, flow, lanes, sources, *args):
+    def spy(self, graph, flow, lanes, sources, *args):
         batches[-1].append(len(sources))
         return search(self, graph, flow, lanes, sources, *args)
 
-    monkeypatch.setattr(TrafficGuidance, "update", spy_update)
-    monkeypatch.setattr(GuideSearches, "search", spy_search)
-    env = fleet.parallel_env(num_robots=64, layout="warehouse", lifelong=True, max_cycles=30,
-                             moves="rotate")  # fmt: skip
-    runs = []
-    for workers in (1, 2):
-        batches.clear()
-        policy = planner_policy("guided", 0, first_search_batch=8, workers=workers)
-        runs.append(play(env, policy, 0, 30))
-        assert batches[0] == [8] * 8  # every robot's first guide path, 8 at a time
-        later = [size for step in batches[1:] for size in step]
-        assert later
-        assert set(later) == {1}
-    assert runs[0] == runs[1]
-    assert runs[0][0] == 0
-    batches.clear()
-    one_at_a_time = planner_policy("guided", 0, first_search_batch=None)
-    assert play(env, one_at_a_time, 0, 30) != runs[0]  # the batches plan otherwise
-    assert batches[0] == [1] * 64
-    batches.clear()
-    play(env, planner_policy("guided", 0), 0, 30)
-    assert batches[0] == [64]  # by default the first step's searches are one batch of 64
+    rng = np.random.default_rng(7)
+    guidance = TrafficGuidance(WarehouseGrid(40, 40), GuidanceConfig(**config))
+    here = rng.choice(1600, robots, replace=False)
+    facing = rng.integers(0, 4, robots)
+    with monkeypatch.context() as patched:
+        patched.setattr(GuideSearches, "search", spy)
+        for _ in range(steps):
+            batches.append([])
+            guidance.update(here, rng.choice(1600, robots), np.ones(robots, dtype=bool),
+                            facing=facing)  # fmt: skip
+    paths = guidance._paths
+    found = [paths.pool[paths.start[i] : paths.start[i] + paths.moves[i] + 1].tolist()
+             for i in range(robots)]  # fmt: skip
+    return batches, found
+
+
+def test_the_first_step_searches_in_batches_of_its_own(monkeypatch):
+    """``first_search_batch``: the first step's searches (every robot's first guide path)
+    run in batches of that size, at most a hundredth of them (``FIRST_BATCH_SHARE``),
+    later steps' in ``search_batch``'s; the same paths on any number of threads."""
+    batched, one, two = ({"first_search_batch": 8, "workers": w} for w in (1, 1, 2))
+    batches, found = first_step_batches(monkeypatch, 900, **batched)
+    assert batches[0] == [8] * 112 + [4]  # 900 first guide paths, 8 at a time
+    assert batches[1] == [1] * 900  # every robot's new goal, one at a time
+    assert first_step_batches(monkeypatch, 900, **two) == (batches, found)
+    one_at_a_time = first_step_batches(monkeypatch, 900, steps=1, first_search_batch=None)
+    assert one_at_a_time[0] == [[1] * 900]
+    # The batches plan otherwise: paths blind to the others of their batch.
+    assert one_at_a_time[1] != first_step_batches(monkeypatch, 900, steps=1, **batched)[1]
+    # A hundredth of 500 searches: batches of 5, whatever first_search_batch allows.
+    assert first_step_batches(monkeypatch, 500, steps=1)[0] == [[5] * 100]
+    assert first_step_batches(monkeypatch, 150, steps=1, **one)[0] == [[1] * 150]
+
+
+def search_twice_then_exit(searches, batch):
+    found = [searches.search(*batch), searches.search(*batch)]
+    os._exit(0 if all(path is not None for path in found[1]) else 1)
+
+
+def test_a_forked_process_searches_on_threads_of_its_own():
+    """A process forked after the threads started (a multiprocessing pool with fork) has
+    none of them: its searches start threads of their own rather than wait for ever."""
+    free = np.ones((6, 6), dtype=bool)
+    cells = np.arange(36)
+    row, col = (cells // 6).astype(np.int32), (cells % 6).astype(np.int32)
+    searches = GuideSearches(row, col, workers=2)
+    flow = np.zeros((36, 4), dtype=np.int32)
+    batch = (graph_search.move_graph(free), flow, flow.copy(), [0, 5, 30], [35, 30, 5],
+             [-1, -1, -1], np.array([0.5, 1.0, 1.0, 1.0, 0.5]))  # fmt: skip
+    assert all(path is not None for path in searches.search(*batch))  # the threads start
+    child = multiprocessing.get_context("fork").Process(
+        target=search_twice_then_exit, args=(searches, batch)
+    )
+    child.start()
+    child.join(timeout=60)
+    if child.exitcode is None:
+        child.kill()
+    assert child.exitcode == 0
 
 
 def test_workers_out_of_range_are_refused():

@@ -22,10 +22,8 @@ def test_robots_heading_opposite_ways_get_aisles_of_their_own():
     grid = WarehouseGrid.from_layout(TWO_AISLES)
     here = np.array([0 * 8 + 0, 0 * 8 + 7])
     goal = np.array([0 * 8 + 7, 0 * 8 + 0])
-    # Searched one at a time (not in one batch, as a first step's are by default), so that
-    # the second sees the first's path.
-    # One search at a time, so that the second sees the first's path (by default a first
-    # step's searches are one batch, blind to each other).
+    # One search at a time, so that the second sees the first's path (whatever the first
+    # step's batches: first_search_batch).
     priced = GuidanceConfig(first_search_batch=None)
     unpriced = GuidanceConfig(contraflow_weight=0, first_search_batch=None)
     for config, apart in ((priced, True), (unpriced, False)):

@@ -17,6 +17,7 @@ it.
 
 from __future__ import annotations
 
+import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -103,6 +104,7 @@ class GuideSearches:
         n = len(cell_row)
         self._buffers = [_Buffers(n) for _ in range(self.workers)]
         self._pool: ThreadPoolExecutor | None = None
+        self._pool_pid = 0  # the process that started the pool's threads
 
     def search(
         self,
@@ -131,15 +133,18 @@ class GuideSearches:
         if self.workers == 1 or len(sources) == 1:
             run(0)
             return found
-        if self._pool is None:
+        # A process forked from the one that started the threads has none of them: its
+        # pool would wait for ever, so it starts its own.
+        if self._pool is None or self._pool_pid != os.getpid():
             self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="guide-search")
+            self._pool_pid = os.getpid()
         for future in [self._pool.submit(run, w) for w in range(self.workers)]:
             future.result()
         return found
 
     def __getstate__(self) -> dict[str, object]:
         """What a pickle keeps: everything but the threads (the next batch starts them)."""
-        return {**self.__dict__, "_pool": None}
+        return {**self.__dict__, "_pool": None, "_pool_pid": 0}
 
     def close(self) -> None:
         """Stop the threads (a later batch starts them again)."""

@@ -54,7 +54,8 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   values), so a step is always PIBT's, and every plan traffic grants. The first step,
   when every robot needs its first guide path, can have a bound of its own
   (``first_time_limit``; ``math.inf`` for none). The searches run in batches of
-  ``search_batch`` (the first step's: ``first_search_batch``) against one flow, on
+  ``search_batch`` (the first step's: ``first_search_batch``, at most a hundredth of
+  its searches) against one flow, on
   ``workers`` threads (:mod:`~warehouse_phys.planners.guide_searches`): the same paths
   for any number of threads.
 
@@ -76,7 +77,7 @@ import numpy as np
 
 from warehouse_phys.planners import graph_search, traffic_flow
 from warehouse_phys.planners.distances import DistanceMaps
-from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.guidance_config import FIRST_BATCH_SHARE, GuidanceConfig
 from warehouse_phys.planners.guide_searches import GuidePaths, GuideSearches
 from warehouse_phys.planners.lanes import NO_LANE, floor_lanes, one_way_lanes
 from warehouse_phys.planners.lanes.learned import TrafficLanes
@@ -179,11 +180,11 @@ class TrafficGuidance:
                 raise ValueError("a new fleet needs a new TrafficGuidance")
             self._paths = GuidePaths.empty(len(here))
         self._hold(np.sort(np.asarray([] if held is None else held, dtype=np.int64)))
-        limit, batch = self.config.time_limit, self.config.search_batch
+        limit, batch, share = self.config.time_limit, self.config.search_batch, None
         if self._first and self.config.first_time_limit is not None:
             limit = self.config.first_time_limit
         if self._first and self.config.first_search_batch is not None:
-            batch = self.config.first_search_batch
+            batch, share = self.config.first_search_batch, FIRST_BATCH_SHARE
         self._first = False
         if limit is not None:
             deadline = min(time.perf_counter() + limit, math.inf if deadline is None else deadline)
@@ -206,7 +207,7 @@ class TrafficGuidance:
                 self.lanes[:] = self._laid_lanes + self.learner.lanes()
         if facing is not None and self.learner is not None and self.learner.observe(column):
             self.lanes[:] = self._laid_lanes + self.learner.lanes()
-        self._search_paths(column, status, active, deadline, batch)
+        self._search_paths(column, status, active, deadline, batch, share)
         self._guided = status == 0
         return self._values(here, goal, column, self._guided, distances)
 
@@ -247,10 +248,12 @@ class TrafficGuidance:
         active: np.ndarray,
         deadline: float | None,
         batch_size: int,
+        batch_share: float | None = None,
     ) -> None:
         """Search the guide paths of the active robots that need one (``status`` 1), then
-        refresh ``refresh`` others in turn, in batches of ``batch_size`` within the step's
-        bounds; ``status`` becomes 0 for every robot that has a guide path after."""
+        refresh ``refresh`` others in turn, in batches of ``batch_size`` (and at most
+        ``batch_share`` of the searches, if given) within the step's bounds; ``status``
+        becomes 0 for every robot that has a guide path after."""
         n = len(column)
         order = np.roll(np.arange(n), -self._turn)  # who comes first turns round the fleet
         reachable = self._column[self._paths.goal[order]] >= 0
@@ -260,6 +263,8 @@ class TrafficGuidance:
         budget = self.config.max_searches
         self.searches, self.timed_out = 0, 0
         robots, refreshed = [*needed, *others], set(others)
+        if batch_share is not None:
+            batch_size = max(1, min(batch_size, int(len(robots) * batch_share)))
         begun = time.perf_counter()
         while self.searches < len(robots):
             if (budget is not None and self.searches >= budget) or (

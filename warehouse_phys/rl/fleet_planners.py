@@ -103,6 +103,7 @@ class GuidedPIBTPolicy(PIBTPolicy):
         repair: dict[str, Any] | None = None,
     ) -> None:
         super().__init__(seed)
+        self.planner: GuidedPIBT | None = None
         self.config = config
         self.operations = operations
         self.repair = repair
