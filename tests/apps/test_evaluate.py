@@ -222,7 +222,26 @@ def test_a_stopped_suite_says_how_to_resume_and_keeps_what_it_saved(
     monkeypatch.setattr(evaluate_cli, "_run_on_ray", stopped)
     assert evaluate_cli.main(argv) == status
     assert capsys.readouterr().err.strip() == (
-        f"{PROG}: {word}; finished runs are kept and the others saved every "
-        "--checkpoint-minutes: run the same command again to resume"
+        f"{PROG}: {word}; finished runs are kept and the others as last saved "
+        "(--checkpoint-minutes): run the same command again to resume"
     )
     assert checkpoint.exists()  # kept for the next run
+
+
+def test_a_run_searches_on_the_cpus_it_was_given_unless_its_guidance_says(tmp_path, monkeypatch):
+    from warehouse_phys.rl import fleet_planners
+
+    path, given = str(tiny_instance(tmp_path)), []
+    make = fleet_planners.planner_policy
+
+    def planner_policy(name, seed=0, **guidance):
+        given.append(guidance.get("workers"))
+        return make(name, seed, **guidance)
+
+    monkeypatch.setattr(fleet_planners, "planner_policy", planner_policy)
+    rows = [run_job(Job("guided", path, 0, 8).to_dict(), threads=1),
+            run_job(Job("guided", path, 0, 8, guidance={"workers": 3}).to_dict(), threads=1),
+            run_job(Job("pibt", path, 0, 8).to_dict(), threads=1),
+            run_job(Job("guided", path, 0, 8).to_dict())]  # fmt: skip
+    assert given == [1, 3, None, None]  # None: the default, every core
+    assert rows[0]["finished"] == rows[1]["finished"] == rows[3]["finished"]

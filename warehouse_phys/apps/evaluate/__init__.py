@@ -196,8 +196,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as interrupt:
         terminated = isinstance(interrupt, Terminated)
         print(f"{PROG}: {'terminated' if terminated else 'interrupted'}; finished runs are kept "
-              "and the others saved every --checkpoint-minutes: run the same command again "
-              "to resume", file=sys.stderr)  # fmt: skip
+              "and the others as last saved (--checkpoint-minutes): run the same command "
+              "again to resume", file=sys.stderr)  # fmt: skip
         return 128 + (signal.SIGTERM if terminated else signal.SIGINT)
 
 
@@ -258,7 +258,10 @@ def _run_on_ray(pending: list[Job], out: Path, args: argparse.Namespace) -> dict
         # own (where its worker sees the folder: a local Ray, or one the cluster shares).
         folder = str(out.resolve())
         seconds = 60.0 * args.checkpoint_minutes if args.checkpoint_minutes else None
-        waiting = {remote.remote(job.to_dict(), folder, seconds): job for job in pending}
+        # A run's guide searches get the CPUs Ray gives it, not every core of the machine
+        # each (runs side by side would start as many threads each at their first step).
+        waiting = {remote.remote(job.to_dict(), folder, seconds, args.cpus_per_run): job
+                   for job in pending}  # fmt: skip
         while waiting:
             ready, _ = ray.wait(list(waiting), num_returns=1)
             job = waiting.pop(ready[0])

@@ -75,9 +75,13 @@ def run_job(
     job: dict[str, Any],
     folder: str | None = None,
     checkpoint_seconds: float | None = CHECKPOINT_SECONDS,
+    threads: int | None = None,
 ) -> dict[str, Any]:
     """Play one job (:meth:`Job.to_dict`) in this process; its row (the module's docstring).
     Imports its floors here, so that a Ray worker pays for them only when it runs one.
+    A guided planner searches on ``threads`` threads (the CPUs Ray gives the run) unless
+    the job's guidance sets ``workers``; None: the guidance's default, every core the
+    process may use. The plans are the same for any number.
 
     With the suite's ``folder`` (if this process sees it: a local Ray, or a folder the
     cluster's nodes share), the run starts from the state an earlier run of the same job
@@ -94,7 +98,7 @@ def run_job(
     state = None if checkpoint is None else load_checkpoint(checkpoint, described)
     instance, scheduled = _instance(spec)
     if state is None:
-        state = _start(spec, instance, scheduled)
+        state = _start(spec, instance, scheduled, threads)
     else:
         state.progress.resumed_at.append(len(state.progress.done))
     gc.freeze()  # the floor's objects leave Python's full collections, as simulate does
@@ -133,7 +137,7 @@ def _instance(spec: Job) -> tuple[Any, bool]:
     return instance, instance.assignment == SCHEDULED
 
 
-def _start(spec: Job, instance: Any, scheduled: bool) -> RunState:
+def _start(spec: Job, instance: Any, scheduled: bool, threads: int | None) -> RunState:
     """The job's fleet and policy, reset: its first step not yet played."""
     from warehouse_phys.envs import lorr
     from warehouse_phys.lorr.scheduling_assignment import scheduler_for
@@ -143,7 +147,10 @@ def _start(spec: Job, instance: Any, scheduled: bool) -> RunState:
     if spec.scheduler and scheduled:  # the scheduler of a 2024 instance (2023 assigns errands)
         options["scheduler"] = scheduler_for(spec.scheduler, instance.grid)
     env = lorr.fleet(instance, moves=spec.moves, max_cycles=spec.steps, **options)
-    policy = planner_policy(spec.planner, seed=spec.seed, **spec.guidance)
+    guidance = dict(spec.guidance)
+    if threads is not None and spec.planner != "pibt":  # plain PIBT searches no guide paths
+        guidance.setdefault("workers", threads)
+    policy = planner_policy(spec.planner, seed=spec.seed, **guidance)
     observations, infos = env.reset(seed=spec.seed)
     return RunState(env, policy, observations, infos, Progress())
 
