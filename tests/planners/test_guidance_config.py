@@ -29,7 +29,7 @@ def test_the_first_step_searches_in_batches_on_every_core_the_process_may_use(mo
     monkeypatch.setattr(guidance_config.os, "sched_getaffinity", lambda pid: {3})
     assert GuidanceConfig().workers == 1  # a process narrowed to one core (taskset)
     monkeypatch.setattr(guidance_config.os, "sched_getaffinity", lambda pid: set(range(100)))
-    assert GuidanceConfig().workers == guidance_config.MAX_WORKERS
+    assert GuidanceConfig().workers == guidance_config.DEFAULT_MAX_WORKERS == 8
     assert GuidanceConfig(workers=3).workers == 3
     monkeypatch.delattr(guidance_config.os, "sched_getaffinity")  # no affinity (macOS)
     monkeypatch.setattr(guidance_config.os, "cpu_count", lambda: 6)

@@ -105,6 +105,24 @@ def test_the_first_step_searches_in_batches_of_its_own(monkeypatch):
     assert first_step_batches(monkeypatch, 150, steps=1, **one)[0] == [[1] * 150]
 
 
+def test_threads_and_their_buffers_last_only_while_batches_need_them():
+    """A thread's search buffers are made when a batch first needs them; the first
+    step's threads and buffers are let go after it when later steps search one at a time,
+    and kept when they search in batches."""
+    rng = np.random.default_rng(3)
+    here, goal = rng.choice(1600, 900, replace=False), rng.choice(1600, 900)
+    searches = GuideSearches(np.zeros(5, dtype=np.int32), np.zeros(5, dtype=np.int32), 4)
+    assert searches._buffers[0] is not None
+    assert searches._buffers[1:] == [None] * 3
+    for later, kept in ((1, False), (8, True)):
+        config = GuidanceConfig(first_search_batch=8, search_batch=later, workers=2)
+        guidance = TrafficGuidance(WarehouseGrid(40, 40), config)
+        guidance.update(here, goal, np.ones(900, dtype=bool))
+        assert (guidance._searches._pool is not None) == kept
+        assert (guidance._searches._buffers[1] is not None) == kept
+        guidance.update(here, rng.choice(1600, 900), np.ones(900, dtype=bool))  # still works
+
+
 def search_twice_then_exit(searches, batch):
     found = [searches.search(*batch), searches.search(*batch)]
     os._exit(0 if all(path is not None for path in found[1]) else 1)

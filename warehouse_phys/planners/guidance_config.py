@@ -29,17 +29,20 @@ FIRST_SEARCH_BATCH = 64
 FIRST_BATCH_SHARE = 1 / 100
 #: Most threads that search a batch (``workers``).
 MAX_WORKERS = 64
+#: Most threads by default: a first step's batch of 64 gives 8 threads 8 searches each,
+#: and each thread holds search buffers of its own (28 bytes a free cell).
+DEFAULT_MAX_WORKERS = 8
 
 
 def default_workers() -> int:
     """The guide searches' threads by default: the cores this process may run on (its
     CPU affinity, which ``taskset`` or a container's cpuset may narrow; a CPU quota does
-    not), at most :data:`MAX_WORKERS`."""
+    not), at most :data:`DEFAULT_MAX_WORKERS`."""
     try:
         cores = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):  # no affinity on this system (macOS)
         cores = os.cpu_count() or 1
-    return max(1, min(cores, MAX_WORKERS))
+    return max(1, min(cores, DEFAULT_MAX_WORKERS))
 
 
 @dataclass(frozen=True)

@@ -101,8 +101,10 @@ class GuideSearches:
             raise ValueError(f"workers must be in 1..{MAX_WORKERS}, got {workers!r}")
         self.cell_row, self.cell_col = cell_row, cell_col
         self.workers = int(workers)
-        n = len(cell_row)
-        self._buffers = [_Buffers(n) for _ in range(self.workers)]
+        # The first thread's buffers now, the others' when a batch first needs them (28
+        # bytes a free cell each: 62 MB on a floor of 2.2 million free cells).
+        self._buffers: list[_Buffers | None] = [_Buffers(len(cell_row))]
+        self._buffers += [None] * (self.workers - 1)
         self._pool: ThreadPoolExecutor | None = None
         self._pool_pid = 0  # the process that started the pool's threads
 
@@ -123,6 +125,8 @@ class GuideSearches:
 
         def run(worker: int) -> None:
             buffers = self._buffers[worker]
+            if buffers is None:  # this thread's alone to write
+                buffers = self._buffers[worker] = _Buffers(len(self.cell_row))
             for k in range(worker, len(sources), self.workers):
                 moves = traffic_flow.congestion_path(
                     graph, self.cell_row, self.cell_col, flow, lanes, sources[k], goals[k],
@@ -143,11 +147,14 @@ class GuideSearches:
         return found
 
     def __getstate__(self) -> dict[str, object]:
-        """What a pickle keeps: everything but the threads (the next batch starts them)."""
-        return {**self.__dict__, "_pool": None, "_pool_pid": 0}
+        """What a pickle keeps: everything but the threads and their buffers (the next
+        batch starts them)."""
+        buffers = [self._buffers[0]] + [None] * (self.workers - 1)
+        return {**self.__dict__, "_pool": None, "_pool_pid": 0, "_buffers": buffers}
 
     def close(self) -> None:
-        """Stop the threads (a later batch starts them again)."""
+        """Stop the threads and free their buffers (a later batch starts them again)."""
         if self._pool is not None:
             self._pool.shutdown()
             self._pool = None
+        self._buffers[1:] = [None] * (self.workers - 1)

@@ -208,6 +208,8 @@ class TrafficGuidance:
         if facing is not None and self.learner is not None and self.learner.observe(column):
             self.lanes[:] = self._laid_lanes + self.learner.lanes()
         self._search_paths(column, status, active, deadline, batch, share)
+        if share is not None and self.config.search_batch == 1:
+            self._searches.close()  # later steps search one at a time: no threads needed
         self._guided = status == 0
         return self._values(here, goal, column, self._guided, distances)
 
