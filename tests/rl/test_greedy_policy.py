@@ -158,3 +158,19 @@ def test_the_evaluation_of_a_large_floor_is_bounded_by_its_size():
         assert time.process_time() - started < 10  # was minutes: 43,200 steps per target
         assert evaluation.reached == 0
         assert len(evaluation.results) == 59 * 59
+
+
+def test_evaluating_one_robot_leaves_the_fleets_compiled_searches_unloaded(run_python):
+    """``train`` evaluates its table in every run: on a floor of shelves too, the single
+    robot's shortest paths come from its floor's own search, not the fleets' compiled
+    distance maps, whose loading (numba) cost every train process 0.75 s of CPU."""
+    loaded = run_python(
+        "import sys, gymnasium as gym, numpy as np, warehouse_phys\n"
+        "from warehouse_phys.rl.greedy_policy import evaluate\n"
+        "env = gym.make('warehouse-robot-v0', layout='maze')\n"
+        "grid = env.unwrapped.grid\n"
+        "q = np.zeros((grid.rows, grid.cols, grid.rows, grid.cols, 4))\n"
+        "longest = max(r.optimal_steps for r in evaluate(env, q).results)\n"
+        "print(longest > grid.cols, 'numba' in sys.modules)"
+    )
+    assert loaded.split() == ["True", "False"]
