@@ -81,6 +81,12 @@ def test_guidance_the_entry_cannot_take_is_refused_before_the_kit_runs(
     monkeypatch.setenv("WAREHOUSE_PHYS_GUIDANCE", "{")
     assert startkit.main([*argv, "--only", "simulate"]) == 2
     assert "WAREHOUSE_PHYS_GUIDANCE={: not a JSON object" in capsys.readouterr().err
+    monkeypatch.delenv("WAREHOUSE_PHYS_GUIDANCE")
+    monkeypatch.setenv("WAREHOUSE_PHYS_ROUND_SHARE", "0")
+    assert startkit.main([*argv, "--only", "simulate"]) == 2
+    err = capsys.readouterr().err
+    assert "WAREHOUSE_PHYS_ROUND_SHARE=0: a share above 0, or none" in err
+    assert err.count("\n") == 1
     assert not (tmp_path / "out").exists()
 
 

@@ -75,7 +75,6 @@ def test_the_kits_map_is_our_floor():
     env = SimpleNamespace(map=(~grid.free_mask).astype(int).ravel().tolist(), rows=grid.rows,
                           cols=grid.cols)  # fmt: skip
     assert (adapters.kit_grid(env).free_mask == grid.free_mask).all()
-    assert adapters.setting("WAREHOUSE_PHYS_PLANNER") == "guided-ops-repair"
 
 
 def test_the_executor_takes_its_planners_plan_only_when_it_is_the_kits():
@@ -104,13 +103,3 @@ def test_call_timings_give_wall_and_cpu_medians_and_the_share_over_the_limit(tmp
     assert timings["round"]["cpu_median_ms"] == pytest.approx(300)
     assert timings["next_command"]["over_limit"] == 1.0
     assert "cpu_median_ms" not in timings["process_new_plan"]  # an older file: wall only
-
-
-def test_the_guidance_setting_is_a_json_object_of_fields(monkeypatch):
-    assert adapters.entry_guidance() == {}
-    monkeypatch.setenv("WAREHOUSE_PHYS_GUIDANCE", '{"reroute": 32}')
-    assert adapters.entry_guidance() == {"reroute": 32}
-    for text in ("[1]", "{", "32"):
-        monkeypatch.setenv("WAREHOUSE_PHYS_GUIDANCE", text)
-        with pytest.raises(ValueError, match="not a JSON object of the planner's fields"):
-            adapters.entry_guidance()

@@ -65,13 +65,13 @@ with command_interrupts(__name__ == "__main__"):
         remove_empty,
     )
     from warehouse_phys.lorr.instances import LorrInstance, read_instance
-    from warehouse_phys.lorr.startkit.adapters import entry_guidance, setting
     from warehouse_phys.lorr.startkit.build import KitBuildError, NotAKitError, build_kit
     from warehouse_phys.lorr.startkit.install import InstallError, install
     from warehouse_phys.lorr.startkit.planner import entry_planner
     from warehouse_phys.lorr.startkit.run_folder import SUMMARY, RunFolderRefused, prepare_folder
     from warehouse_phys.lorr.startkit.runs import RUNS, comparison_table, run_kit, run_simulate
     from warehouse_phys.lorr.startkit.scheduler import ENTRY_SCHEDULERS, FLEET_SCHEDULERS
+    from warehouse_phys.lorr.startkit.settings import entry_guidance, round_share, setting
     from warehouse_phys.planners.named import PLANNERS
     from warehouse_phys.world.grid import WarehouseGrid
 
@@ -142,6 +142,7 @@ def _entry(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
                          f"known: {', '.join(ENTRY_SCHEDULERS)}")  # fmt: skip
     try:
         guidance = entry_guidance() if args.guidance is None else args.guidance
+        round_share()  # read by the entry in the kit: refused here, in one line
     except ValueError as error:
         raise UsageError(str(error)) from None
     try:  # on a small floor: the fields alone, before the kit runs

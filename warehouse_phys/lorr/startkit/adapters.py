@@ -18,7 +18,9 @@ planner (``WAREHOUSE_PHYS_PLANNER``, ``guided-ops-repair``) and its fields
 (``WAREHOUSE_PHYS_GUIDANCE``, a JSON object such as ``{"reroute": 32}``; ``{}``, the
 entry's own: :func:`~warehouse_phys.lorr.startkit.planner.entry_planner`), and the scheduler
 (``WAREHOUSE_PHYS_SCHEDULER``, ``assignment``; ``assignment-capped``,
-``assignment-backlog``, ``makespan``, ``nearest``). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
+``assignment-backlog``, ``makespan``, ``nearest``), and the share of the kit's time limit
+the planner's round aims at (``WAREHOUSE_PHYS_ROUND_SHARE``, :data:`ROUND_SHARE`; ``none``
+for no bound: :func:`round_share`). With ``WAREHOUSE_PHYS_TIMINGS`` set to a
 file, each call appends a line ``<call> <wall seconds> <CPU seconds of its thread>`` to
 it (the kit ends its process without Python's exit handlers, so nothing waits for the
 end).
@@ -33,8 +35,8 @@ answer before it lets the executor go on (it holds Python's lock while it copies
 Time: the kit's rounds are real time (a late plan costs the robots the ticks they wait
 for it, an executor call over its 100 ms a tick of waits for every robot). The planner
 aims to end its round, the scheduler's time included, within :data:`ROUND_SHARE` of the
-kit's ``time_limit``: the guided planner's guide-path searches stop there, and the robots
-left step by PIBT's distances (``seconds`` of
+kit's ``time_limit`` (``WAREHOUSE_PHYS_ROUND_SHARE``): the guided planner's guide-path
+searches stop there, and the robots left step by PIBT's distances (``seconds`` of
 :meth:`~warehouse_phys.lorr.startkit.planner.EntryPlanner.plan`; without the kit, as
 :mod:`~warehouse_phys.lorr.startkit.system` runs the entry, there is no such bound and a
 run is the same for the same seed). The executor takes the plan from this interpreter's
@@ -69,18 +71,16 @@ from warehouse_phys.lorr.startkit.planner import (
     with_held,
 )
 from warehouse_phys.lorr.startkit.scheduler import EntryScheduler, OpenTasks
-from warehouse_phys.planners.named import guidance_from_json
+from warehouse_phys.lorr.startkit.settings import (
+    ROUND_SHARE,
+    entry_guidance,
+    round_share,
+    setting,
+)
 from warehouse_phys.world.grid import WarehouseGrid
 from warehouse_phys.world.headings import HEADING_MOVES
 from warehouse_phys.world.traffic import neighbour_table
 
-#: The environment variables the components read (see the module), with their defaults.
-SETTINGS = {
-    "WAREHOUSE_PHYS_AGENT_SIZE": "1",
-    "WAREHOUSE_PHYS_PLANNER": "guided-ops-repair",
-    "WAREHOUSE_PHYS_GUIDANCE": "{}",
-    "WAREHOUSE_PHYS_SCHEDULER": "assignment",
-}
 _GO, _STOP = 0, 1  # MAPF.ExecutionCommand
 #: The share of its time limit the executor's first command of a round waits for the
 #: scheduler's answer (the module). At 10,000 robots that command ends about 105 ms
@@ -101,9 +101,6 @@ _EXECUTED: list[np.ndarray] = []
 _PLANNED: list[np.ndarray] = []
 #: When this interpreter's scheduler began the round's computation [perf_counter s].
 _ROUND_BEGUN = [0.0]
-#: The share of the kit's ``time_limit`` a round (the scheduler and the planner together)
-#: aims at: the rest is the answers' way back into the kit, and the machine's load.
-ROUND_SHARE = 0.6
 
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -132,24 +129,6 @@ def timed(call: str) -> Callable[[F], F]:
         return run  # type: ignore[return-value]
 
     return wrap
-
-
-def setting(name: str) -> str:
-    """The component setting ``name`` (a key of :data:`SETTINGS`) from the environment."""
-    return os.environ.get(name, SETTINGS[name])
-
-
-def entry_guidance() -> dict[str, Any]:
-    """The planner's fields that ``WAREHOUSE_PHYS_GUIDANCE`` sets (a JSON object).
-
-    Raises:
-        ValueError: naming the variable, for text that is not a JSON object.
-    """
-    text = setting("WAREHOUSE_PHYS_GUIDANCE")
-    try:
-        return guidance_from_json(text)
-    except ValueError as error:
-        raise ValueError(f"WAREHOUSE_PHYS_GUIDANCE={text}: {error}") from None
 
 
 def kit_grid(env: Any) -> WarehouseGrid:
@@ -281,10 +260,12 @@ class PlannerAdapter:
     def __init__(self) -> None:
         self.env: Any = None
         self.core: EntryPlanner | None = None
+        self._share: float | None = ROUND_SHARE
 
     def initialize(self, preprocess_time_limit: int) -> None:
         grid = kit_grid(self.env)
         name, guidance = setting("WAREHOUSE_PHYS_PLANNER"), entry_guidance()
+        self._share = round_share()
         self.core = EntryPlanner(grid, steps=kit_steps(self.env), planner=name,
                                  guidance=guidance)  # fmt: skip
         self._ahead = neighbour_table(grid)[:, HEADING_MOVES]
@@ -315,7 +296,9 @@ class PlannerAdapter:
         self._calls += 1
         steps = window_steps(tick, round_ticks(env), env.max_counter)
         begun = _ROUND_BEGUN[0] if _SCHEDULER.is_set() else time.perf_counter()
-        seconds = max(0.0, begun + ROUND_SHARE * time_limit / 1000 - time.perf_counter())
+        seconds = None
+        if self._share is not None:
+            seconds = max(0.0, begun + self._share * time_limit / 1000 - time.perf_counter())
         actions = self.core.plan(cells, headings, goals, steps, seconds=seconds)
         _PLANNED[:] = [actions]  # the executor's next plan (see plan_table)
         return actions.tolist()

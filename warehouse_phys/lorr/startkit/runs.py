@@ -96,7 +96,7 @@ def run_kit(
     and ``out`` with ``.log`` (its log); ``entry`` ``"ours"`` loads the entry's three
     components (the kit's flags ``extra`` may turn some back to the kit's own;
     ``settings``, the components' environment variables,
-    :data:`~warehouse_phys.lorr.startkit.adapters.SETTINGS`), ``"default"`` runs the
+    :data:`~warehouse_phys.lorr.startkit.settings.SETTINGS`), ``"default"`` runs the
     kit's default entry."""
     out = Path(out).resolve()
     work = out.parent / f".{out.stem}-kit"
