@@ -517,7 +517,7 @@ def _settings(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list
     if not names and not args.ten_thousand and not args.physics:
         parser.error("--maps must name a map (or give --ten-thousand or --physics alone: "
                      "--maps '')")  # fmt: skip
-    extra = [TEN_THOUSAND[0]] * args.ten_thousand + [PHYSICS[0]] * args.physics
+    extra = [TEN_THOUSAND[0]] * args.ten_thousand + [args.physics_map] * args.physics
     for name in [*names, *extra]:
         if not (args.maps_dir / f"{name}.map").is_file():
             parser.error(f"--maps: no map {name}.map in {args.maps_dir}")
@@ -532,7 +532,7 @@ def _settings(args: argparse.Namespace, parser: argparse.ArgumentParser) -> list
         fleets.append((TEN_THOUSAND[0], args.ten_thousand_robots, args.ten_thousand_ticks,
                        ("executor",)))  # fmt: skip
     if args.physics:
-        fleets.append((PHYSICS[0], args.physics_robots, args.physics_ticks, ("physics",)))
+        fleets.append((args.physics_map, args.physics_robots, args.physics_ticks, ("physics",)))
     for _, count, ticks, _ in fleets:
         if count < 1 or ticks < 1:
             parser.error(f"--robots and --ticks must be at least 1, got {count} and {ticks}")
@@ -574,6 +574,9 @@ def main(argv: list[str] | None = None) -> list[dict[str, object]]:
         help=f"add the physics twin: {PHYSICS[1]:,} robots on {PHYSICS[0]} (the executor)",
     )
     parser.add_argument("--physics-robots", type=int, default=PHYSICS[1], help=argparse.SUPPRESS)
+    # A smaller floor for smoke runs (the tests'): building the bodies' floor is most of
+    # a short run's time, and warehouse_large's is 46 times kiva's.
+    parser.add_argument("--physics-map", default=PHYSICS[0], help=argparse.SUPPRESS)
     parser.add_argument("--physics-ticks", type=int, default=600)
     parser.add_argument(
         "--around-delays",

@@ -81,10 +81,11 @@ QUICK = {"sizes": "100,200", "ticks": 2, "warm": 1, "rounds": 1, "env_ticks": 3,
          "env_rounds": 2}  # fmt: skip
 
 
-def record_ticks(grid, robots: int, ticks: int) -> tuple[np.ndarray, list[tuple]]:  # noqa: ANN001
+def record_ticks(grid, robots: int, ticks: int,  # noqa: ANN001
+                 floor: Path = MAP) -> tuple[np.ndarray, list[tuple]]:  # fmt: skip
     """The starts of ``robots`` turning robots and the arguments of ``drive_tick`` for
-    ``ticks`` ticks of the executor (grid twin, seed 0)."""
-    env = parallel_env(layout=str(MAP), num_robots=robots, ticks_per_move=TICKS_PER_MOVE,
+    ``ticks`` ticks of the executor (grid twin, seed 0) on ``floor``."""
+    env = parallel_env(layout=str(floor), num_robots=robots, ticks_per_move=TICKS_PER_MOVE,
                        delays=DELAYS, moves="rotate", max_cycles=ticks + 1, seed=0)  # fmt: skip
     env.reset_arrays(seed=0)
     executor = env.execution.executor
@@ -146,11 +147,11 @@ def replay(grid, starts: np.ndarray, ticks: list[tuple], threads: int, safety: b
     return cpu, cpu - parallel + critical if threads > 1 else cpu, wall
 
 
-def memory_probe(robots: int, ticks: int) -> dict[str, float]:
+def memory_probe(robots: int, ticks: int, floor: Path = MAP) -> dict[str, float]:
     """In a fresh process: the peak resident memory of a world of ``robots`` bodies (two
     threads, the safety measures) run ``ticks`` ticks, beyond the process before it."""
-    grid = read_movingai(MAP)
-    starts, recorded = record_ticks(grid, robots, ticks)
+    grid = read_movingai(floor)
+    starts, recorded = record_ticks(grid, robots, ticks, floor)
     gc.collect()
     before, after = resident_mib(), []
     replay(grid, starts, recorded, 2, True, 0, after)
@@ -158,20 +159,22 @@ def memory_probe(robots: int, ticks: int) -> dict[str, float]:
     return {"robots": robots, "peak_mib": peak, "bytes_per_robot": peak * 2**20 / robots}
 
 
-def scaling(sizes: list[int], ticks: int, warm: int, rounds: int) -> list[dict[str, object]]:
+def scaling(sizes: list[int], ticks: int, warm: int, rounds: int,
+            floor: Path = MAP) -> list[dict[str, object]]:  # fmt: skip
     """The bodies' rounds (see the module), size by size; one row a size and candidate."""
-    grid = read_movingai(MAP)
+    grid = read_movingai(floor)
     tick_seconds = default_tick_steps(PhysicsConfig(), TICKS_PER_MOVE) * PhysicsConfig().dt
     rows = []
     for robots in sizes:
-        starts, recorded = record_ticks(grid, robots, warm + ticks)
+        starts, recorded = record_ticks(grid, robots, warm + ticks, floor)
         runs = {name: [] for name, _, _ in CANDIDATES}
         for round_index in range(rounds):
             shift = round_index % len(CANDIDATES)
             for name, threads, safety in CANDIDATES[shift:] + CANDIDATES[:shift]:
                 runs[name].append(replay(grid, starts, recorded, threads, safety, warm))
         probe = subprocess.run([sys.executable, __file__, "--memory-probe", str(robots),
-                                "--ticks", str(warm + ticks)], capture_output=True, text=True,
+                                "--ticks", str(warm + ticks), "--map", str(floor)],
+                               capture_output=True, text=True,
                                check=True)  # fmt: skip
         memory = json.loads(probe.stdout.splitlines()[-1])
         reference = [cpu for cpu, _, _ in runs[CANDIDATES[0][0]]]
@@ -263,13 +266,14 @@ def _block(env: AsyncFleetEnv, arrays: bool, ticks: int) -> tuple[float, float, 
     return cpu, cpu - parallel + critical, wall
 
 
-def through_the_environment(ticks: int, rounds: int, quick: bool) -> dict[str, object]:
+def through_the_environment(ticks: int, rounds: int, quick: bool,
+                            floor: Path = MAP) -> dict[str, object]:  # fmt: skip
     """The issue's two figures through the environment (see the module)."""
     results = {}
     for key, per_move in (("thousand", TICKS_PER_MOVE), ("thousand_t10", 10)):
         print(f"1,000 four-direction robots on warehouse_large, T={per_move}, pDelay 0.005, "
               "one thread:")  # fmt: skip
-        results[key] = env_pair(ticks, rounds, 3 if quick else 30, layout=str(MAP),
+        results[key] = env_pair(ticks, rounds, 3 if quick else 30, layout=str(floor),
                                 num_robots=100 if quick else 1_000, ticks_per_move=per_move,
                                 delays=DELAYS, physics=True, max_cycles=10**6,
                                 pair=(("dicts", {}, False), ("arrays", {}, True)))  # fmt: skip
@@ -318,14 +322,18 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
     parser.add_argument("--env-ticks", type=int, default=40, help="ticks a block")
     parser.add_argument("--env-rounds", type=int, default=5, help="blocks an environment")
     parser.add_argument("--memory-probe", type=int, default=None, help=argparse.SUPPRESS)
+    # A smaller floor for smoke runs (the tests'): a short run's time goes to building
+    # each world's shelves, and warehouse_large has 46 times kiva-33-46's cells.
+    parser.add_argument("--map", type=Path, default=MAP, help=argparse.SUPPRESS)
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--plot", type=Path, default=None)
     parser.add_argument("--quick", action="store_true", help=f"a smoke run: {QUICK}")
     args = parser.parse_args(argv)
-    if not MAP.is_file():
-        parser.error(f"no {MAP.name} in {MAP.parent}: the benchmark needs the shared maps")
+    if not args.map.is_file():
+        parser.error(f"no {args.map.name} in {args.map.parent}: the benchmark needs the "
+                     "shared maps")  # fmt: skip
     if args.memory_probe is not None:
-        print(json.dumps(memory_probe(args.memory_probe, args.ticks)))
+        print(json.dumps(memory_probe(args.memory_probe, args.ticks, args.map)))
         return {}
     if args.quick:
         for name, value in QUICK.items():
@@ -338,12 +346,12 @@ def main(argv: list[str] | None = None) -> dict[str, object]:
                                  "machine": platform.platform(), "cpus": os.cpu_count(),
                                  "timer": "time.process_time"}  # fmt: skip
     if not args.skip_bodies:
-        rows = scaling(sizes, args.ticks, args.warm, args.rounds)
-        report["scaling"] = {"map": MAP.stem, "ticks": args.ticks, "warm": args.warm,
+        rows = scaling(sizes, args.ticks, args.warm, args.rounds, args.map)
+        report["scaling"] = {"map": args.map.stem, "ticks": args.ticks, "warm": args.warm,
                              "rounds": args.rounds, "rows": rows}  # fmt: skip
     if args.env:
         report["environment"] = through_the_environment(args.env_ticks, args.env_rounds,
-                                                         args.quick)  # fmt: skip
+                                                         args.quick, args.map)  # fmt: skip
         report["verdicts"] = [] if args.quick else verdicts(report["environment"])
         for line in report["verdicts"]:
             print(line)

@@ -1,6 +1,7 @@
 """The documentation site's configuration (Sphinx, MyST Markdown, the furo theme).
 
-Build it as the tests do (warnings are errors, every reference must resolve)::
+Build it as the tests do (warnings are errors, every reference must resolve; ``-j auto``
+reads and writes the pages on every core, which the tests leave to their other workers)::
 
     python -m sphinx -W -n --keep-going -j auto -b html docs docs/_build/html
 

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
+MAPS = ROOT.parent / "shared" / "maps"
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import bench  # noqa: E402 - the benchmark script, imported as a module
@@ -133,10 +134,12 @@ def test_the_lorr_benchmark_reports_our_figure_beside_the_published_one(tmp_path
 
 def test_the_big_maps_benchmark_reports_ours_beside_the_reference(tmp_path):
     """A smoke run: a generated floor with goals beyond the distance maps' room (guided),
-    and the warehouse map where the folder has it; every figure is reported."""
+    and a map read from the folder where the folder has it (kiva-33-46: the same path as
+    the field's maps, on a floor 46 times smaller than warehouse_large, whose child cost
+    1.5 s more); every figure is reported."""
     result = subprocess.run(
         [sys.executable, "benchmarks/big_maps.py", "--quick", "--only",
-         "random-256-256-10,warehouse-large-140-500", "--json", str(tmp_path / "big.json")],
+         "random-256-256-10,kiva-33-46", "--json", str(tmp_path / "big.json")],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
@@ -150,18 +153,21 @@ def test_the_big_maps_benchmark_reports_ours_beside_the_reference(tmp_path):
         assert run["first_step_ratio"] > 0
         assert run["later_step_ratio"] > 0
         assert run["peak_rss_mib"] > 0
-    if (ROOT.parent / "shared" / "maps" / "warehouse-large-140-500.map").exists():
-        assert [run["map"] for run in runs] == ["random-256-256-10", "warehouse-large-140-500"]
+    if (MAPS / "kiva-33-46.map").exists():
+        assert [run["map"] for run in runs] == ["random-256-256-10", "kiva-33-46"]
 
 
 @pytest.mark.slow
 def test_the_delays_benchmark_reports_every_figure_with_no_conflict(tmp_path):
     """A smoke run of every setting (few robots, few ticks): every figure is reported,
-    no run has a conflict, and the executor's runs no deadlock."""
-    if not (ROOT.parent / "shared" / "maps" / "kiva-33-46.map").exists():
+    no run has a conflict, and the executor's runs no deadlock. On two small floors, the
+    bodies on the smaller: a short run's time goes to building the floor's tables and
+    shelves, and warehouse_large's (the default) cost 10 of the run's 18 s of CPU."""
+    if not all((MAPS / f"{name}.map").exists() for name in ("kiva-33-46", "random-64-64-10")):
         pytest.skip("benchmark maps not found beside the checkout (../shared/maps)")
     result = subprocess.run(
-        [sys.executable, "benchmarks/delays.py", "--quick", "--physics", "--json",
+        [sys.executable, "benchmarks/delays.py", "--quick", "--physics", "--maps",
+         "kiva-33-46,random-64-64-10", "--physics-map", "kiva-33-46", "--json",
          str(tmp_path / "d.json"), "--plot", str(tmp_path / "d.png")],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
@@ -176,6 +182,7 @@ def test_the_delays_benchmark_reports_every_figure_with_no_conflict(tmp_path):
         assert run["min_gap"] < 1
     runs = [run for run in runs if run["mode"] != "physics"]
     assert len(runs) == 2 * 2 * 2 * 5  # maps, ticks_per_move, modes, pDelays
+    assert {run["map"] for run in runs} == {"kiva-33-46", "random-64-64-10"}
     assert {(r["mode"], r["ticks_per_move"], r["p_delay"]) for r in runs} == {
         (mode, ticks, p)
         for mode in ("lock-step", "executor")
@@ -207,14 +214,16 @@ def test_the_delays_benchmark_reports_every_figure_with_no_conflict(tmp_path):
 
 
 def test_the_planners_benchmark_reports_guided_beside_plain_pibt(tmp_path):
-    """A smoke run: the 200-robot LoRR example, two Kiva sizes and two warehouse_large
-    fleets (the scaling plot), a few steps each."""
+    """A smoke run: the 200-robot LoRR example, two Kiva sizes and two scaling fleets
+    (the scaling plot), a few steps each. The scaling fleets play the Kiva floor rather
+    than warehouse_large (the default), whose tables cost 2 s of the run's 11 s of CPU."""
     shared = ROOT.parent / "shared"
-    if not (shared / "lorr").is_dir() or not (shared / "maps" / "kiva-33-46.map").exists():
+    if not (shared / "lorr").is_dir() or not (MAPS / "kiva-33-46.map").exists():
         pytest.skip("LoRR instances or kiva-33-46.map not found beside the checkout")
     result = subprocess.run(
         [sys.executable, "benchmarks/planners.py", "--quick", "--json",
-         str(tmp_path / "planners.json"), "--scaling", "--plot", str(tmp_path / "scaling.png")],
+         str(tmp_path / "planners.json"), "--scaling", "--scaling-map",
+         str(MAPS / "kiva-33-46.map"), "--plot", str(tmp_path / "scaling.png")],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
@@ -230,12 +239,12 @@ def test_the_planners_benchmark_reports_guided_beside_plain_pibt(tmp_path):
     assert summary["flow"]["steps"] == 3
     assert summary["mr23"][1]["searches_per_step"] >= 0
     assert len(summary["kiva"]) == 4
-    if (shared / "maps" / "warehouse-large-140-500.map").exists():
-        rows = summary["scaling"]["rows"]
-        assert [(row["robots"], row["planner"]) for row in rows] == [
-            (100, "pibt"), (100, "guided"), (200, "pibt"), (200, "guided")]  # fmt: skip
-        assert all(row["refused"] == 0 for row in rows)
-        assert (tmp_path / "scaling.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert summary["scaling"]["layout"] == "kiva-33-46.map"
+    rows = summary["scaling"]["rows"]
+    assert [(row["robots"], row["planner"]) for row in rows] == [
+        (100, "pibt"), (100, "guided"), (200, "pibt"), (200, "guided")]  # fmt: skip
+    assert all(row["refused"] == 0 for row in rows)
+    assert (tmp_path / "scaling.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_the_planners_benchmark_plays_operations_with_turning_robots_only(tmp_path):
@@ -294,17 +303,21 @@ def test_the_guide_threads_benchmark_finds_the_same_actions_on_one_thread_and_tw
 @pytest.mark.slow
 def test_the_physics_scale_benchmark_reports_time_memory_and_real_time(tmp_path):
     """A smoke run: two small fleets, every candidate (threads, safety), the figure, and
-    the environment's pair of runs."""
-    if not (ROOT.parent / "shared" / "maps" / "warehouse-large-140-500.map").exists():
+    the environment's pair of runs. On the Kiva floor rather than warehouse_large (the
+    default): a short run's time goes to building each world's shelves (14 worlds and
+    6 planners here), 7 s of the run's 18 s of CPU on warehouse_large."""
+    if not (MAPS / "kiva-33-46.map").exists():
         pytest.skip("benchmark maps not found beside the checkout (../shared/maps)")
     result = subprocess.run(
-        [sys.executable, "benchmarks/physics_scale.py", "--quick", "--env", "--json",
-         str(tmp_path / "p.json"), "--plot", str(tmp_path / "p.png")],
+        [sys.executable, "benchmarks/physics_scale.py", "--quick", "--env", "--map",
+         str(MAPS / "kiva-33-46.map"), "--json", str(tmp_path / "p.json"), "--plot",
+         str(tmp_path / "p.png")],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     report = json.loads((tmp_path / "p.json").read_text())
     assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
+    assert report["scaling"]["map"] == "kiva-33-46"
     rows = report["scaling"]["rows"]
     assert {(row["robots"], row["candidate"]) for row in rows} == {
         (n, name) for n in (100, 200)

@@ -2,9 +2,11 @@
 
 import csv
 import json
+import os
 import subprocess
 import sys
 import time
+from unittest import mock
 
 import gymnasium as gym
 import numpy as np
@@ -34,64 +36,83 @@ def read_rows(folder):
 
 
 @pytest.mark.slow
-def test_a_sweep_on_ray_records_every_trial_resumes_and_reports_failures(tmp_path):
+def test_a_sweep_on_ray_records_every_trial_resumes_and_reports_failures(
+    tmp_path, monkeypatch, capfd
+):
+    import ray
+
     out = tmp_path / "sweep"
     (out / "runs").mkdir(parents=True)
     (out / BLOCKED).write_text("in the way")  # this trial's folder cannot be written
+    monkeypatch.chdir(tmp_path)
+    argv = [*SWEEP, "--out", str(out)]
+    # Both sweeps run here, on one real local Ray: the one a sweep without --address
+    # starts (ray_session, as main's), which each sweep finds running and uses. A local
+    # Ray costs some 9 s of CPU to start (its agents and monitors are Python processes),
+    # and a sweep's own process as much again to import Ray Tune: the command in a fresh
+    # process, and a Ray it starts and ends itself, are the killed-driver test's
+    # (test_sweep_resume). capfd reads the file descriptors, as a subprocess's pipes did.
+    with mock.patch.dict(os.environ), sweep_ray.ray_session(None, 1, prestart_workers=False):
+        capfd.readouterr()
+        status = sweep_cli.main(argv)
+        first = capfd.readouterr()
+        assert status == 1, first.err
+        assert "Traceback" not in first.err
+        assert first.err.strip().endswith(f"1 of 4 trials failed; see {out / 'results.csv'}")
+        assert first.out.startswith(f"4 trials in {out}: 0 already finished, 4 to run\n")
+        rows = read_rows(out)
+        assert [row["trial"] for row in rows] == [
+            f"{env}-default-a0.9-g0.9-e60-seed{seed}" for env in ("grid", "phys") for seed in (0, 1)
+        ]
+        failed = [row for row in rows if row["status"] == "failed"]
+        assert [row["folder"] for row in failed] == [BLOCKED]
+        assert "exists and is not a folder" in failed[0]["error"]
+        assert json.loads((out / "results.json").read_text())["trials"][3]["status"] == "failed"
+        assert (out / "summary.png").read_bytes()[:4] == b"\x89PNG"
 
-    first = run_sweep(*SWEEP, "--out", str(out), cwd=tmp_path)
-    assert first.returncode == 1, first.stderr
-    assert "Traceback" not in first.stderr
-    assert first.stderr.strip().endswith(f"1 of 4 trials failed; see {out / 'results.csv'}")
-    assert first.stdout.startswith(f"4 trials in {out}: 0 already finished, 4 to run\n")
-    rows = read_rows(out)
-    assert [row["trial"] for row in rows] == [
-        f"{env}-default-a0.9-g0.9-e60-seed{seed}" for env in ("grid", "phys") for seed in (0, 1)
-    ]
-    failed = [row for row in rows if row["status"] == "failed"]
-    assert [row["folder"] for row in failed] == [BLOCKED]
-    assert "exists and is not a folder" in failed[0]["error"]
-    assert json.loads((out / "results.json").read_text())["trials"][3]["status"] == "failed"
-    assert (out / "summary.png").read_bytes()[:4] == b"\x89PNG"
-
-    # Every finished row is its folder: the table loads and evaluates as recorded.
-    started = {}
-    for row in rows:
-        if row["status"] != "done":
-            continue
-        folder = out / row["folder"]
-        assert sorted(p.name for p in folder.iterdir()) == sorted(set(RUN_FILES) - {"episode.gif"})
-        q, metadata = load_q_table(folder / "qtable.npz")
-        assert metadata["seed"] == int(row["seed"])
-        assert metadata["episodes"] == int(row["episodes"]) == int(row["training_episodes"])
-        env_id = "warehouse-robot-v0" if row["env"] == "grid" else "warehouse-robot-phys-v0"
-        assert metadata["env_id"] == env_id
-        evaluation = evaluate(gym.make(f"warehouse_phys:{env_id}"), q)
-        assert evaluation.optimal == int(row["optimal"])
-        assert evaluation.optimal / len(evaluation.results) == pytest.approx(
-            float(row["fraction_optimal"])
-        )
-        started[row["trial"]] = json.loads((folder / "summary.json").read_text())["started"]
-        started[row["trial"] + "/mtime"] = (folder / "qtable.npz").stat().st_mtime_ns
-
-    # Ray's workers run trial after trial (reuse_actors): each table is still the one
-    # its trial makes on its own, here in this process.
-    alone = tmp_path / "alone"
-    trials = sweep_trials.trials_from_args(sweep_cli.build_parser().parse_args(SWEEP))
-    for trial in trials:
-        if trial.folder != BLOCKED:
-            sweep_ray.run_trial(trial.to_job(alone, gif=False))
-            np.testing.assert_array_equal(
-                load_q_table(alone / trial.folder / "qtable.npz")[0],
-                load_q_table(out / trial.folder / "qtable.npz")[0],
+        # Every finished row is its folder: the table loads and evaluates as recorded.
+        started = {}
+        for row in rows:
+            if row["status"] != "done":
+                continue
+            folder = out / row["folder"]
+            assert sorted(p.name for p in folder.iterdir()) == sorted(
+                set(RUN_FILES) - {"episode.gif"}
             )
+            q, metadata = load_q_table(folder / "qtable.npz")
+            assert metadata["seed"] == int(row["seed"])
+            assert metadata["episodes"] == int(row["episodes"]) == int(row["training_episodes"])
+            env_id = "warehouse-robot-v0" if row["env"] == "grid" else "warehouse-robot-phys-v0"
+            assert metadata["env_id"] == env_id
+            evaluation = evaluate(gym.make(f"warehouse_phys:{env_id}"), q)
+            assert evaluation.optimal == int(row["optimal"])
+            assert evaluation.optimal / len(evaluation.results) == pytest.approx(
+                float(row["fraction_optimal"])
+            )
+            started[row["trial"]] = json.loads((folder / "summary.json").read_text())["started"]
+            started[row["trial"] + "/mtime"] = (folder / "qtable.npz").stat().st_mtime_ns
 
-    # The same command again, the obstacle gone: only the failed trial trains.
-    (out / BLOCKED).unlink()
-    second = run_sweep(*SWEEP, "--out", str(out), cwd=tmp_path)
-    assert second.returncode == 0, second.stderr
-    assert second.stdout.startswith(f"4 trials in {out}: 3 already finished, 1 to run\n")
-    assert "[1/1] phys-default-a0.9-g0.9-e60-seed1: done" in second.stdout
+        # Ray's workers run trial after trial (reuse_actors): each table is still the one
+        # its trial makes on its own, here in this process.
+        alone = tmp_path / "alone"
+        trials = sweep_trials.trials_from_args(sweep_cli.build_parser().parse_args(SWEEP))
+        for trial in trials:
+            if trial.folder != BLOCKED:
+                sweep_ray.run_trial(trial.to_job(alone, gif=False))
+                np.testing.assert_array_equal(
+                    load_q_table(alone / trial.folder / "qtable.npz")[0],
+                    load_q_table(out / trial.folder / "qtable.npz")[0],
+                )
+
+        # The same command again, the obstacle gone: only the failed trial trains.
+        (out / BLOCKED).unlink()
+        capfd.readouterr()
+        status = sweep_cli.main(argv)
+        second = capfd.readouterr()
+        assert status == 0, second.err
+    assert not ray.is_initialized()  # the Ray the block started is shut down
+    assert second.out.startswith(f"4 trials in {out}: 3 already finished, 1 to run\n")
+    assert "[1/1] phys-default-a0.9-g0.9-e60-seed1: done" in second.out
     rows = read_rows(out)
     assert [row["status"] for row in rows] == ["done"] * 4
     for row in rows[:3]:

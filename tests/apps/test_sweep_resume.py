@@ -1,10 +1,13 @@
 """Resuming a sweep: finished trials, the folder check, the locks of the driver and of
 the trials, lingering workers of a killed driver."""
 
+import io
 import os
+import shutil
 import subprocess
 import sys
 import time
+from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
 
@@ -46,19 +49,39 @@ def tune_in_process(jobs, sweep_dir, **options):
     return outcomes
 
 
-def finished_sweep(tmp_path, monkeypatch, capsys):
-    """A two-trial sweep run in this process: its folder and the trials."""
-    monkeypatch.setattr(sweep_cli, "run_on_tune", tune_in_process)
-    out = tmp_path / "sweep"
+@pytest.fixture(scope="module")
+def finished_template(tmp_path_factory):
+    """A two-trial sweep run once for the module, in this process: its folder and argv.
+    Each test works on a copy (:func:`finished_sweep`), so none sees another's changes;
+    a sweep of its own each (its runs' figures most of the cost) bought nothing more."""
+    out = tmp_path_factory.mktemp("finished") / "sweep"
     argv = ["--seeds", "2", "--episodes", "60", "--out", str(out)]
-    assert sweep_cli.main(argv) == 0, capsys.readouterr().err
-    assert "2 trials in" in capsys.readouterr().out
+    printed, errors = io.StringIO(), io.StringIO()
+    with pytest.MonkeyPatch.context() as patched, redirect_stdout(printed), redirect_stderr(errors):
+        patched.setattr(sweep_cli, "run_on_tune", tune_in_process)
+        status = sweep_cli.main(argv)
+    assert status == 0, errors.getvalue()
+    assert "2 trials in" in printed.getvalue()
+    return out, argv
+
+
+@pytest.fixture
+def finished_sweep(tmp_path, finished_template):
+    """A finished two-trial sweep of this test's own (a copy, files and times as the sweep
+    left them, its lock file and token included): its folder, argv and trials."""
+    template, argv = finished_template
+    out = tmp_path / "sweep"
+    shutil.copytree(template, out)
+    argv = [*argv[:-1], str(out)]
     trials = sweep_trials.trials_from_args(sweep_cli.build_parser().parse_args(argv))
     return out, argv, trials
 
 
-def test_a_truncated_or_foreign_table_is_trained_again_on_resume(tmp_path, monkeypatch, capsys):
-    out, argv, trials = finished_sweep(tmp_path, monkeypatch, capsys)
+def test_a_truncated_or_foreign_table_is_trained_again_on_resume(
+    finished_sweep, monkeypatch, capsys
+):
+    out, argv, trials = finished_sweep
+    monkeypatch.setattr(sweep_cli, "run_on_tune", tune_in_process)
     assert all(sweep_resume.finished_row(trial, out) for trial in trials)
     table = out / trials[1].folder / "qtable.npz"
     data = table.read_bytes()
@@ -103,8 +126,8 @@ def test_a_killed_drivers_lock_is_taken_over_with_a_new_token(tmp_path, monkeypa
     sweep_resume.check_sweep_folder(out)  # the lock is one of the sweep's own files
 
 
-def test_a_lingering_worker_of_an_earlier_run_touches_nothing(tmp_path, monkeypatch, capsys):
-    out, _, trials = finished_sweep(tmp_path, monkeypatch, capsys)
+def test_a_lingering_worker_of_an_earlier_run_touches_nothing(finished_sweep):
+    out, _, trials = finished_sweep
     folder = out / trials[0].folder
     before = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
     old_job = trials[0].to_job(out, gif=False, run="1 earlier-run")  # not the lock's token
@@ -140,11 +163,11 @@ def held(folder):
 
 
 def test_a_folder_held_by_a_lingering_worker_is_not_finished_and_is_waited_for(
-    tmp_path, monkeypatch, capsys
+    finished_sweep, monkeypatch
 ):
     import threading
 
-    out, _, trials = finished_sweep(tmp_path, monkeypatch, capsys)
+    out, _, trials = finished_sweep
     folder = out / trials[0].folder
     handle = hold_folder(folder)
     try:

@@ -98,41 +98,27 @@ def test_full_default_run_on_the_grid_twin(tmp_path):
     assert evaluation["all_optimal"] is True
     for entry in evaluation["results"]:
         assert entry["steps"] == entry["optimal_steps"] == sum(entry["target"])
-    # The saved table evaluates the same when loaded back.
-    again = run_cli("--eval", "my-run/qtable.npz", cwd=tmp_path)
-    assert again.returncode == 0, again.stderr
-    assert "all 12 targets reached by a shortest path" in again.stdout.splitlines()
-    assert again.stdout.splitlines()[0].startswith(
-        "evaluating my-run/qtable.npz (warehouse-robot-v0"
-    )
+    # (A saved table evaluated again from its file, by a process of its own: test_train_eval.py.)
 
 
-def test_small_physics_run_writes_everything_and_evaluates(tmp_path):
+def test_small_physics_run_without_a_gif_writes_the_rest_and_evaluates(tmp_path):
+    # One process for two things a user asks of a small run: the options reach the run,
+    # and --no-gif leaves the animation out (the GIFs of both worlds are checked by the
+    # two default runs above).
     result = run_cli(
         "--env", "phys", "--rows", "3", "--cols", "3", "--episodes", "300", "--seed", "4",
-        "--alpha", "0.8", "--gamma", "0.95", "--out", "out", cwd=tmp_path,
+        "--alpha", "0.8", "--gamma", "0.95", "--no-gif", "--out", "out", cwd=tmp_path,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     _, summary = assert_run_folder(
-        tmp_path / "out", warehouse_phys.PHYSICS_ENV_ID, grid=(3, 3), episodes=300
+        tmp_path / "out", warehouse_phys.PHYSICS_ENV_ID, grid=(3, 3), episodes=300, gif=False
     )
     assert summary["config"] == {"episodes": 300, "alpha": 0.8, "gamma": 0.95, "seed": 4}
     assert summary["evaluation"]["targets"] == 4
     assert summary["evaluation"]["all_optimal"] is True
-
-
-def test_quiet_prints_nothing(tmp_path):
-    result = run_cli("--env", "grid", "--episodes", "50", "--quiet", "--out", "o", cwd=tmp_path)
-    assert (result.returncode, result.stdout, result.stderr) == (0, "", "")
-    assert (tmp_path / "o" / "qtable.npz").exists()
-
-
-def test_no_gif_leaves_the_animation_out(tmp_path):
-    result = run_cli("--env", "phys", "--episodes", "50", "--no-gif", "--out", "o", cwd=tmp_path)
-    assert result.returncode == 0, result.stderr
-    assert_run_folder(tmp_path / "o", warehouse_phys.PHYSICS_ENV_ID, episodes=50, gif=False)
     assert (
-        result.stdout.splitlines()[-1] == "wrote o/qtable.npz, learning_curve.png and summary.json"
+        result.stdout.splitlines()[-1]
+        == "wrote out/qtable.npz, learning_curve.png and summary.json"
     )
 
 
@@ -165,8 +151,8 @@ def test_default_run_folders_do_not_collide(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     noon = time.strptime("2026-01-01 12:00:00", "%Y-%m-%d %H:%M:%S")
     monkeypatch.setattr(train_cli.time, "localtime", lambda *_: noon)  # two runs, same second
-    for _ in range(2):
-        assert train_cli.main(["--env", "grid", "--episodes", "20", "--quiet"]) == 0
+    for _ in range(2):  # no GIF: only the folders' names are checked
+        assert train_cli.main(["--env", "grid", "--episodes", "20", "--quiet", "--no-gif"]) == 0
     names = sorted(p.name for p in (tmp_path / "runs").iterdir())
     assert names == ["grid-seed0-20260101-120000", "grid-seed0-20260101-120000-2"]
 
@@ -271,7 +257,7 @@ def test_render_watches_one_greedy_episode_in_a_window(tmp_path, monkeypatch):
 
 # ------------------------------------------------------------------- --layout
 @pytest.mark.slow
-def test_a_preset_layout_trains_with_its_recommended_episodes(tmp_path):
+def test_a_preset_layout_trains_with_its_recommended_episodes(tmp_path, capsys):
     result = run_cli("--env", "grid", "--layout", "maze", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     (folder,) = (tmp_path / "runs").iterdir()
@@ -283,14 +269,16 @@ def test_a_preset_layout_trains_with_its_recommended_episodes(tmp_path):
     assert summary["layout_name"] == "maze"
     assert summary["evaluation"]["all_optimal"] is True
     assert "all 23 targets reached by a shortest path" in result.stdout.splitlines()
-    # Evaluated again from the file, on the physics-backed twin of the preset.
-    again = run_cli("--eval", str(folder / "qtable.npz"), "--env", "phys", cwd=tmp_path)
-    assert again.returncode == 0, again.stderr
-    assert "on warehouse-robot-phys-maze-v0" in again.stdout.splitlines()[0]
-    assert "all 23 targets reached by a shortest path" in again.stdout
+    # Evaluated again from the file, on the physics-backed twin of the preset: in this
+    # process, which need not import the package afresh (--eval in a shell is
+    # test_train_eval.py's).
+    assert train_cli.main(["--eval", str(folder / "qtable.npz"), "--env", "phys"]) == 0
+    again = capsys.readouterr().out
+    assert "on warehouse-robot-phys-maze-v0" in again.splitlines()[0]
+    assert "all 23 targets reached by a shortest path" in again
 
 
-def test_a_layout_file_trains_and_its_table_remembers_the_layout(tmp_path):
+def test_a_layout_file_trains_and_its_table_remembers_the_layout(tmp_path, monkeypatch, capsys):
     (tmp_path / "room.txt").write_text("\nS..#\n.#..\n...P\n\n")
     result = run_cli("--env", "phys", "--layout", "room.txt", "--episodes", "200", "--out", "r",
                      cwd=tmp_path)  # fmt: skip
@@ -302,29 +290,33 @@ def test_a_layout_file_trains_and_its_table_remembers_the_layout(tmp_path):
     assert summary["layout_name"] is None
     assert summary["evaluation"]["results"] == [{"target": [2, 3], "steps": 5, "optimal_steps": 5}]
     assert "the target reached by a shortest path" in result.stdout
-    # Without the file, --eval rebuilds the floor from the table.
+    # Without the file, --eval rebuilds the floor from the table (in this process, which
+    # never read the file: the run above was another one).
     (tmp_path / "room.txt").unlink()
-    again = run_cli("--eval", "r/qtable.npz", "--env", "grid", cwd=tmp_path)
-    assert again.returncode == 0, again.stderr
-    assert "the target reached by a shortest path" in again.stdout
+    monkeypatch.chdir(tmp_path)
+    assert train_cli.main(["--eval", "r/qtable.npz", "--env", "grid"]) == 0
+    assert "the target reached by a shortest path" in capsys.readouterr().out
 
 
 # ------------------------------------------------------------- floors and limits
 def test_every_floor_gets_its_suggested_time_limit_and_a_hint_when_it_falls_short(tmp_path, capsys):
+    # 6 x 6 and 30 episodes (was 10 x 10 and 150: 30 times the steps): a floor that is not
+    # the default one, with a limit of its own, and too few episodes to learn it. The limit
+    # of every floor size is test_layouts.py's (10 x 10's 1,200 among them).
     out = tmp_path / "run"
-    args = ["--env", "grid", "--rows", "10", "--cols", "10", "--episodes", "150", "--no-gif",
+    args = ["--env", "grid", "--rows", "6", "--cols", "6", "--episodes", "30", "--no-gif",
             "--out", str(out)]  # fmt: skip
     assert train_cli.main(args) == 0
     stdout = capsys.readouterr().out.splitlines()
-    assert stdout[0].endswith("were truncated at 1200 steps")  # the exact 98 % limit of 10 x 10
+    assert stdout[0].endswith("were truncated at 400 steps")  # the exact 98 % limit of 6 x 6
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["max_episode_steps"] == 1200
-    missed = 81 - summary["evaluation"]["reached"]
+    assert summary["max_episode_steps"] == 400
+    missed = 25 - summary["evaluation"]["reached"]
     assert missed > 0
     hints = [line for line in stdout if line.startswith("the greedy policy misses")]
     assert hints == [
-        f"the greedy policy misses {missed} of 81 targets: try more episodes "
-        "(--episodes 600) or a longer time limit (--max-steps 2400)"
+        f"the greedy policy misses {missed} of 25 targets: try more episodes "
+        "(--episodes 120) or a longer time limit (--max-steps 800)"
     ]
 
 
@@ -403,18 +395,20 @@ def test_a_folder_in_use_by_another_run_is_refused(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_two_trainers_racing_for_one_folder_never_mix_their_files(tmp_path):
+def test_two_quiet_trainers_racing_for_one_folder_never_mix_their_files(tmp_path):
     out = tmp_path / "run"
     command = [sys.executable, "-m", "warehouse_phys.apps.train", *SMALL_RUN, "--out", str(out)]
     pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
     runs = [subprocess.Popen([*command, "--seed", str(s)], cwd=tmp_path, **pipes) for s in (1, 2)]
-    codes = []
+    codes, outputs = [], []
     for run in runs:
-        run.communicate(timeout=120)
+        outputs.append(run.communicate(timeout=120))
         codes.append(run.returncode)
     assert sorted(codes) == [0, 2]
-    _, metadata = load_q_table(out / "qtable.npz")
     winner = 1 + codes.index(0)
+    # SMALL_RUN is --quiet: the run that trained and wrote its files printed nothing.
+    assert outputs[winner - 1] == ("", "")
+    _, metadata = load_q_table(out / "qtable.npz")
     assert metadata["seed"] == winner
     assert json.loads((out / "summary.json").read_text())["config"]["seed"] == winner
 
@@ -527,7 +521,9 @@ def test_render_without_a_display_exits_1_before_training(tmp_path):
 
 # ------------------------------------------------------------------- a fleet
 @pytest.mark.slow
-def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(tmp_path):
+def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(
+    tmp_path, monkeypatch, capsys
+):
     # 200 episodes: 60 delivered (400: 58); what is checked is the run, its files and --eval.
     result = run_cli("--robots", "3", "--env", "grid", "--episodes", "200", "--out", "fleet",
                      cwd=tmp_path)  # fmt: skip
@@ -558,10 +554,13 @@ def test_a_fleet_trains_writes_its_run_and_is_evaluated_against_shortest_paths(t
     costs = {line.split()[0]: int(line.split("sum of costs ")[1].split()[0]) for line in table[:4]}
     assert costs["learned"] == learned["sum_of_costs"]
     assert costs["learned"] < costs["random"] / 2, costs
-    again = run_cli("--eval", "fleet/qtable.npz", cwd=tmp_path)
-    assert again.returncode == 0, again.stderr
-    assert "(3 robots, warehouse-robot-v0, 4x5, 200 episodes" in again.stdout
-    assert f"{learned['delivered']}/60 packages delivered" in again.stdout
+    # The file read back and evaluated again: in this process, which need not import the
+    # package afresh (the run above is the user's; --eval in a shell is test_train_eval.py's).
+    monkeypatch.chdir(tmp_path)
+    assert train_cli.main(["--eval", "fleet/qtable.npz"]) == 0
+    again = capsys.readouterr().out
+    assert "(3 robots, warehouse-robot-v0, 4x5, 200 episodes" in again
+    assert f"{learned['delivered']}/60 packages delivered" in again
 
 
 def test_a_physics_fleet_run_writes_its_files(tmp_path, capsys):

@@ -165,14 +165,18 @@ def test_different_seeds_give_different_targets(env_cls):
     assert rollout(env_cls(), seed=1) != rollout(env_cls(), seed=2)
 
 
-def test_trajectories_are_identical_across_processes(run_python, env_id):
+def test_trajectories_are_identical_across_processes(run_python):
+    """Both environments, in one fresh process (one interpreter to start, not two), in the
+    other order there, so that neither case follows the other on both sides."""
+    env_ids = list(ENV_CLASSES)
     script = (
         "import gymnasium as gym, warehouse_phys, json\n"
         "from tests.envs.test_envs import rollout\n"
-        f"print(json.dumps(rollout(gym.make({env_id!r}), seed=99)))\n"
+        f"for env_id in {env_ids[::-1]!r}:\n"
+        "    print(json.dumps(rollout(gym.make(env_id), seed=99)))\n"
     )
-    here = rollout(gym.make(env_id), seed=99)
-    assert json.loads(run_python(script)) == json.loads(json.dumps(here))
+    expected = [json.loads(json.dumps(rollout(gym.make(env_id), seed=99))) for env_id in env_ids]
+    assert [json.loads(line) for line in run_python(script).splitlines()] == expected[::-1]
 
 
 def test_reset_with_target_option_draws_no_random_number(env_cls):

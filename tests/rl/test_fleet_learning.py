@@ -39,8 +39,13 @@ def test_training_is_seeded_and_reproducible_and_learns_to_deliver():
     assert np.array_equal(first.steps, second.steps)
     assert first.returns[-100:].mean() > 1.9  # both packages delivered in late episodes
     assert first.steps[-100:].mean() < first.steps[:100].mean() / 3
-    other = train_fleet(fleet.parallel_env(num_robots=2), QLearningConfig(episodes=50, seed=4))
-    assert not np.array_equal(first.steps[:50], other.steps)
+    # Another seed, another run: two short runs of one length, so that only the seed tells
+    # them apart (a run's length sets its exploration schedule).
+    seeded = [
+        train_fleet(fleet.parallel_env(num_robots=2), QLearningConfig(episodes=10, seed=seed))
+        for seed in (3, 4)
+    ]
+    assert not np.array_equal(seeded[0].steps, seeded[1].steps)
 
 
 def test_the_learned_policy_delivers_near_the_shortest_paths():
@@ -103,10 +108,12 @@ def test_the_fleet_recording_is_still_importable_from_here():
 
 def test_a_neighbours_table_sees_adjacent_robots_and_round_trips(tmp_path):
     env = fleet.parallel_env(num_robots=2, observation="neighbours")
-    result = train_fleet(env, QLearningConfig(episodes=100, seed=0))  # 230 such entries
+    # 30 episodes (was 100): what is checked is the table's shape and that it holds states
+    # with a robot beside (23 of them; 100 episodes: 148), not what it learned.
+    result = train_fleet(env, QLearningConfig(episodes=30, seed=0))
     assert result.q.shape == (4, 5, 4, 5, 16, 5)
     assert result.q[..., 1:, :].any()  # states with a robot beside were visited
-    metadata = fleet_table_metadata(env, QLearningConfig(episodes=100), "warehouse-robot-v0")
+    metadata = fleet_table_metadata(env, QLearningConfig(episodes=30), "warehouse-robot-v0")
     assert metadata["observation"] == "neighbours"
     save_q_table(tmp_path / "n.npz", result.q, metadata)
     loaded, loaded_metadata = load_q_table(tmp_path / "n.npz")
