@@ -236,24 +236,27 @@ def test_the_adapters_speak_the_kits_own_types(tmp_path):
     assert json.dumps(settings.SETTINGS)  # the settings the components read, documented
 
 
-@pytest.mark.parametrize(("share", "bounded"), [(None, True), ("0.25", True), ("none", False)])
-def test_the_round_share_bounds_the_planners_round_unless_none(
-    tmp_path, monkeypatch, share, bounded
-):
-    mapf = mapf_module(built_kit(), tmp_path)
-    if share is not None:
-        monkeypatch.setenv("WAREHOUSE_PHYS_ROUND_SHARE", share)
-    planner = adapters.PlannerAdapter()
-    planner.env = kit_environment(mapf, tiny_instance())
-    planner.initialize(30_000)
-    asked = []
-    plan = planner.core.plan
-    planner.core.plan = lambda *args, seconds: asked.append(seconds) or plan(*args)
-    planner.plan(1000)  # [ms]
-    assert (asked[0] is not None) == bounded
-    # At most the share of the round's 1 s (less where this process's scheduler, of an
-    # earlier test, began the round before).
-    assert not bounded or 0 <= asked[0] <= float(share or settings.ROUND_SHARE)
+def test_the_round_share_bounds_the_planners_round_unless_none(tmp_path, monkeypatch):
+    mapf = mapf_module(built_kit(), tmp_path)  # one module for the three settings
+    env = kit_environment(mapf, tiny_instance())
+    for share, bounded in ((None, True), ("0.25", True), ("none", False)):
+        if share is not None:
+            monkeypatch.setenv("WAREHOUSE_PHYS_ROUND_SHARE", share)
+        planner = adapters.PlannerAdapter()
+        planner.env = env
+        planner.initialize(30_000)
+        asked = []
+
+        def spy(*args, seconds, plan=planner.core.plan, asked=asked):
+            asked.append(seconds)
+            return plan(*args)
+
+        planner.core.plan = spy
+        planner.plan(1000)  # [ms]
+        assert (asked[0] is not None) == bounded, share
+        # At most the share of the round's 1 s (less where this process's scheduler, of an
+        # earlier test, began the round before).
+        assert not bounded or 0 <= asked[0] <= float(share or settings.ROUND_SHARE)
 
 
 def test_the_command_runs_the_three_and_writes_their_summary(tmp_path, capsys):
