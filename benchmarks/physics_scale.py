@@ -271,7 +271,7 @@ def through_the_environment(ticks: int, rounds: int, quick: bool,
     """The issue's two figures through the environment (see the module)."""
     results = {}
     for key, per_move in (("thousand", TICKS_PER_MOVE), ("thousand_t10", 10)):
-        print(f"1,000 four-direction robots on warehouse_large, T={per_move}, pDelay 0.005, "
+        print(f"1,000 four-direction robots on {floor.stem}, T={per_move}, pDelay 0.005, "
               "one thread:")  # fmt: skip
         results[key] = env_pair(ticks, rounds, 3 if quick else 30, layout=str(floor),
                                 num_robots=100 if quick else 1_000, ticks_per_move=per_move,

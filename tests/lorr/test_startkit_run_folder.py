@@ -14,7 +14,7 @@ from warehouse_phys.lorr.startkit.run_folder import (
 from warehouse_phys.lorr.startkit.runs import RUNS
 
 SETTING = {"instance": "x.json", "ticks": 40, "kit": "kit", "planner": "guided-ops-repair",
-           "scheduler": "assignment", "guidance": {}}  # fmt: skip
+           "scheduler": "assignment", "guidance": {}, "round_share": 0.6}  # fmt: skip
 
 
 def earlier_run(folder, names=RUNS, setting=SETTING):
@@ -84,10 +84,11 @@ def test_one_run_already_there_is_replaced_only_with_overwrite(tmp_path):
 
 
 @pytest.mark.parametrize("field", ["instance", "ticks", "kit", "planner", "scheduler",
-                                   "guidance"])  # fmt: skip
+                                   "guidance", "round_share"])  # fmt: skip
 def test_a_folder_never_holds_runs_of_two_settings(tmp_path, field):
     earlier_run(tmp_path, names=("ours",))
-    other = {**SETTING, field: {"ticks": 80, "guidance": {"reroute": 32}}.get(field, "other")}
+    others = {"ticks": 80, "guidance": {"reroute": 32}, "round_share": None}
+    other = {**SETTING, field: others.get(field, "other")}
     with pytest.raises(RunFolderRefused, match=f"a run of another setting \\({field} "):
         prepare_folder(tmp_path, ["simulate"], other, overwrite=False)
     assert (tmp_path / "ours.json").is_file()
@@ -103,3 +104,13 @@ def test_an_earlier_run_without_its_summary_is_not_joined(tmp_path, summary):
         prepare_folder(tmp_path, ["simulate"], SETTING, overwrite=False)
     assert prepare_folder(tmp_path, ["simulate"], SETTING, overwrite=True) == []
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_earlier_summary_without_the_round_share_was_the_default_share(tmp_path):
+    """Summaries written before the share was a setting: their entries' rounds were bounded
+    at the default share, so a run at that share joins them and one without a bound not."""
+    earlier_run(tmp_path, names=("ours",), setting={
+        k: v for k, v in SETTING.items() if k != "round_share"})  # fmt: skip
+    assert prepare_folder(tmp_path, ["simulate"], SETTING, overwrite=False) != []
+    with pytest.raises(RunFolderRefused, match=r"another setting \(round_share 0\.6, not None"):
+        prepare_folder(tmp_path, ["simulate"], {**SETTING, "round_share": None}, overwrite=False)

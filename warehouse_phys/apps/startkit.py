@@ -36,7 +36,9 @@ refused at once. ``--planner``, ``--scheduler`` and
 ``WAREHOUSE_PHYS_PLANNER``, ``WAREHOUSE_PHYS_SCHEDULER`` and ``WAREHOUSE_PHYS_GUIDANCE``
 say, else ``guided-ops-repair``, ``assignment`` and ``{}``), and ``simulate`` runs the same
 ones (``assignment`` is its ``rematch``, ``assignment-capped`` its ``rematch-capped``,
-``assignment-backlog`` its ``rematch-backlog``). Exit
+``assignment-backlog`` its ``rematch-backlog``); ``WAREHOUSE_PHYS_ROUND_SHARE`` sets the
+share of the kit's time limit the entry's round aims at (0.6; ``none``: no bound, the
+plans ``simulate`` makes), recorded with the setting. Exit
 status: 0; 2 for a bad command line or instance; 1 when the kit cannot be built or run
 (one line saying what is missing, or where its log is).
 """
@@ -124,9 +126,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _entry(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
-    """The entry's planner, scheduler and planner's fields: the command line's, else the
-    environment's.
+def _entry(args: argparse.Namespace) -> tuple[str, str, dict[str, Any], float | None]:
+    """The entry's planner, scheduler and planner's fields (the command line's, else the
+    environment's) and its round's share of the kit's time limit (the environment's).
 
     Raises:
         UsageError: for a planner or scheduler the environment names that the entry has
@@ -142,14 +144,14 @@ def _entry(args: argparse.Namespace) -> tuple[str, str, dict[str, Any]]:
                          f"known: {', '.join(ENTRY_SCHEDULERS)}")  # fmt: skip
     try:
         guidance = entry_guidance() if args.guidance is None else args.guidance
-        round_share()  # read by the entry in the kit: refused here, in one line
+        share = round_share()  # read by the entry in the kit: refused here, in one line
     except ValueError as error:
         raise UsageError(str(error)) from None
     try:  # on a small floor: the fields alone, before the kit runs
         entry_planner(planner, WarehouseGrid(2, 2), guidance=guidance)
     except (TypeError, ValueError) as error:
         raise UsageError(f"--guidance: {error}") from None
-    return planner, scheduler, guidance
+    return planner, scheduler, guidance, share
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -193,11 +195,12 @@ def _run(args: argparse.Namespace) -> int:
         raise UsageError(str(error).splitlines()[0]) from None
     if not args.kit.is_dir() and args.only != "simulate":
         raise UsageError(f"--kit {args.kit}: not a folder (give the start kit's source)")
-    planner, scheduler, guidance = _entry(args)
+    planner, scheduler, guidance, share = _entry(args)
     out = args.out
     wanted = [args.only] if args.only else list(RUNS)
     setting = {"instance": str(args.instance), "ticks": args.ticks, "kit": str(args.kit),
-               "planner": planner, "scheduler": scheduler, "guidance": guidance}  # fmt: skip
+               "planner": planner, "scheduler": scheduler, "guidance": guidance,
+               "round_share": share}  # fmt: skip
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: not a folder")
     # The folder is locked for the whole command, as a training run's is, so that two

@@ -377,7 +377,7 @@ class WarehouseGrid:
         width = max(len(came_from) for came_from in sources)
         comes_from = np.array([came_from + [len(cells)] * (width - len(came_from))
                                for came_from in sources])  # fmt: skip
-        share = 1.0 / len(ACTION_DELTAS)  # a power of two: the quarters are exact
+        share = 1.0 / len(ACTION_DELTAS)  # a power of two: exact; sums differ in rounding
         targets = [index[target] for target in self.target_cells]
         # One row per target: where the walk may be, having not yet reached that target;
         # the last column is the padding's, always 0.

@@ -34,11 +34,14 @@ from pathlib import Path
 from typing import Any
 
 from warehouse_phys.lorr.startkit.runs import RUNS
+from warehouse_phys.lorr.startkit.settings import ROUND_SHARE
 
 #: The summary of the runs in a folder.
 SUMMARY = "summary.json"
 #: The summary's fields that make the runs of one folder comparable: their setting.
-SETTING_FIELDS = ("instance", "ticks", "kit", "planner", "scheduler", "guidance")
+SETTING_FIELDS = ("instance", "ticks", "kit", "planner", "scheduler", "guidance", "round_share")
+#: What a field an older summary lacks stood for: the entry's round was always bounded so.
+EARLIER_DEFAULTS = {"round_share": ROUND_SHARE}
 
 
 class RunFolderRefused(ValueError):
@@ -78,8 +81,9 @@ def prepare_folder(
     if not earlier:
         return []
     summary = _summary(out / SUMMARY)
+    recorded = {} if summary is None else {**EARLIER_DEFAULTS, **summary}
     differs = [field for field in SETTING_FIELDS
-               if summary is None or summary.get(field) != setting.get(field)]  # fmt: skip
+               if summary is None or recorded.get(field) != setting.get(field)]  # fmt: skip
     replaced = [name for name in earlier for run in wanted if name in run_files(run)]
     whole = set(wanted) == set(RUNS) or bool(differs)
     if not overwrite:
@@ -90,7 +94,7 @@ def prepare_folder(
             what = f"an earlier run without its {SUMMARY}"
         elif differs:
             field = differs[0]
-            what = (f"a run of another setting ({field} {summary.get(field)!r}, not "
+            what = (f"a run of another setting ({field} {recorded.get(field)!r}, not "
                     f"{setting.get(field)!r})")  # fmt: skip
         elif replaced:
             what = f"an earlier {_run_of(replaced[0])} run ({replaced[0]})"

@@ -14,19 +14,19 @@ from warehouse_phys.planners.named import guidance_from_json
 
 __all__ = ["ROUND_SHARE", "SETTINGS", "entry_guidance", "round_share", "setting"]
 
+#: The share of the kit's ``time_limit`` a round (the scheduler and the planner together)
+#: aims at by default: the rest is the answers' way back into the kit, and the machine's
+#: load. ``WAREHOUSE_PHYS_ROUND_SHARE`` sets another (:func:`round_share`).
+ROUND_SHARE = 0.6
+
 #: The environment variables the components read (see the module), with their defaults.
 SETTINGS = {
     "WAREHOUSE_PHYS_AGENT_SIZE": "1",
     "WAREHOUSE_PHYS_PLANNER": "guided-ops-repair",
     "WAREHOUSE_PHYS_GUIDANCE": "{}",
     "WAREHOUSE_PHYS_SCHEDULER": "assignment",
-    "WAREHOUSE_PHYS_ROUND_SHARE": "0.6",
+    "WAREHOUSE_PHYS_ROUND_SHARE": str(ROUND_SHARE),
 }
-
-#: The share of the kit's ``time_limit`` a round (the scheduler and the planner together)
-#: aims at by default: the rest is the answers' way back into the kit, and the machine's
-#: load. ``WAREHOUSE_PHYS_ROUND_SHARE`` sets another (:func:`round_share`).
-ROUND_SHARE = 0.6
 
 
 def setting(name: str) -> str:
