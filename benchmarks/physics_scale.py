@@ -269,12 +269,12 @@ def _block(env: AsyncFleetEnv, arrays: bool, ticks: int) -> tuple[float, float, 
 def through_the_environment(ticks: int, rounds: int, quick: bool,
                             floor: Path = MAP) -> dict[str, object]:  # fmt: skip
     """The issue's two figures through the environment (see the module)."""
-    results = {}
+    results, robots = {}, 100 if quick else 1_000
     for key, per_move in (("thousand", TICKS_PER_MOVE), ("thousand_t10", 10)):
-        print(f"1,000 four-direction robots on {floor.stem}, T={per_move}, pDelay 0.005, "
+        print(f"{robots:,} four-direction robots on {floor.stem}, T={per_move}, pDelay 0.005, "
               "one thread:")  # fmt: skip
         results[key] = env_pair(ticks, rounds, 3 if quick else 30, layout=str(floor),
-                                num_robots=100 if quick else 1_000, ticks_per_move=per_move,
+                                num_robots=robots, ticks_per_move=per_move,
                                 delays=DELAYS, physics=True, max_cycles=10**6,
                                 pair=(("dicts", {}, False), ("arrays", {}, True)))  # fmt: skip
     if INSTANCE.is_file() and not quick:

@@ -278,9 +278,14 @@ def test_the_command_runs_the_three_and_writes_their_summary(tmp_path, capsys):
     assert (summary["planner"], summary["scheduler"]) == ("guided-ops-repair", "assignment")
 
 
-def test_the_command_runs_the_entry_and_simulate_with_the_same_scheduler(capped_kit_run, capsys):
+def test_the_command_runs_the_entry_and_simulate_with_the_same_scheduler(
+    capped_kit_run, capsys, monkeypatch
+):
     _, argv, out, status = capped_kit_run  # --only ours: the kit's run of the entry
     assert status == 0
+    # The fixture's setting, its share included: a folder holds the runs of one setting.
+    for name, value in UNBOUNDED.items():
+        monkeypatch.setenv(name, value)
     # simulate replays the delays of ours
     assert startkit.main([*argv, "--only", "simulate"]) == 0, capsys.readouterr().out
     assert "the entry's guided-ops-repair and assignment-capped" in capsys.readouterr().out
