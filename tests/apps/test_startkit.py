@@ -87,6 +87,15 @@ def test_guidance_the_entry_cannot_take_is_refused_before_the_kit_runs(
     err = capsys.readouterr().err
     assert "WAREHOUSE_PHYS_ROUND_SHARE=0: a share above 0, or none" in err
     assert err.count("\n") == 1
+    monkeypatch.delenv("WAREHOUSE_PHYS_ROUND_SHARE")
+    for name in ("WAREHOUSE_PHYS_PLANNER", "WAREHOUSE_PHYS_SCHEDULER", "WAREHOUSE_PHYS_GUIDANCE",
+                 "WAREHOUSE_PHYS_ROUND_SHARE"):  # fmt: skip
+        monkeypatch.setenv(name, "two\nlines")  # shown quoted: still one line
+        assert startkit.main([*argv, "--only", "simulate"]) == 2
+        err = capsys.readouterr().err
+        assert f"{name}='two\\nlines': " in err, err
+        assert err.count("\n") == 1
+        monkeypatch.delenv(name)
     assert not (tmp_path / "out").exists()
 
 

@@ -73,7 +73,7 @@ with command_interrupts(__name__ == "__main__"):
     from warehouse_phys.lorr.startkit.run_folder import SUMMARY, RunFolderRefused, prepare_folder
     from warehouse_phys.lorr.startkit.runs import RUNS, comparison_table, run_kit, run_simulate
     from warehouse_phys.lorr.startkit.scheduler import ENTRY_SCHEDULERS, FLEET_SCHEDULERS
-    from warehouse_phys.lorr.startkit.settings import entry_guidance, round_share, setting
+    from warehouse_phys.lorr.startkit.settings import entry_guidance, round_share, setting, shown
     from warehouse_phys.planners.named import PLANNERS
     from warehouse_phys.world.grid import WarehouseGrid
 
@@ -137,11 +137,11 @@ def _entry(args: argparse.Namespace) -> tuple[str, str, dict[str, Any], float | 
     planner = args.planner or setting("WAREHOUSE_PHYS_PLANNER")
     scheduler = args.scheduler or setting("WAREHOUSE_PHYS_SCHEDULER")
     if planner not in PLANNERS:
-        raise UsageError(f"WAREHOUSE_PHYS_PLANNER={planner}: not a planner; known: "
+        raise UsageError(f"{shown('WAREHOUSE_PHYS_PLANNER', planner)}: not a planner; known: "
                          f"{', '.join(PLANNERS)}")  # fmt: skip
     if scheduler not in ENTRY_SCHEDULERS:
-        raise UsageError(f"WAREHOUSE_PHYS_SCHEDULER={scheduler}: not an entry's scheduler; "
-                         f"known: {', '.join(ENTRY_SCHEDULERS)}")  # fmt: skip
+        raise UsageError(f"{shown('WAREHOUSE_PHYS_SCHEDULER', scheduler)}: not an entry's "
+                         f"scheduler; known: {', '.join(ENTRY_SCHEDULERS)}")  # fmt: skip
     try:
         guidance = entry_guidance() if args.guidance is None else args.guidance
         share = round_share()  # read by the entry in the kit: refused here, in one line

@@ -12,7 +12,7 @@ from typing import Any
 
 from warehouse_phys.planners.named import guidance_from_json
 
-__all__ = ["ROUND_SHARE", "SETTINGS", "entry_guidance", "round_share", "setting"]
+__all__ = ["ROUND_SHARE", "SETTINGS", "entry_guidance", "round_share", "setting", "shown"]
 
 #: The share of the kit's ``time_limit`` a round (the scheduler and the planner together)
 #: aims at by default: the rest is the answers' way back into the kit, and the machine's
@@ -34,6 +34,13 @@ def setting(name: str) -> str:
     return os.environ.get(name, SETTINGS[name])
 
 
+def shown(name: str, value: str) -> str:
+    """``NAME=value`` as an error line shows a setting: the value as given, or quoted (as
+    Python writes a string) where it holds a line break or another character that does
+    not print, so that the message stays one line."""
+    return f"{name}={value if value.isprintable() else repr(value)}"
+
+
 def round_share() -> float | None:
     """The share of the kit's ``time_limit`` the planner's round aims at, from
     ``WAREHOUSE_PHYS_ROUND_SHARE``: a number above 0 (:data:`ROUND_SHARE` by default), or
@@ -52,7 +59,7 @@ def round_share() -> float | None:
     except ValueError:
         share = math.nan
     if not share > 0 or math.isinf(share):
-        raise ValueError(f"WAREHOUSE_PHYS_ROUND_SHARE={text}: a share above 0, or none")
+        raise ValueError(f"{shown('WAREHOUSE_PHYS_ROUND_SHARE', text)}: a share above 0, or none")
     return share
 
 
@@ -66,4 +73,4 @@ def entry_guidance() -> dict[str, Any]:
     try:
         return guidance_from_json(text)
     except ValueError as error:
-        raise ValueError(f"WAREHOUSE_PHYS_GUIDANCE={text}: {error}") from None
+        raise ValueError(f"{shown('WAREHOUSE_PHYS_GUIDANCE', text)}: {error}") from None
