@@ -8,6 +8,7 @@ from warehouse_phys.planners.guidance_config import MAX_LANE_PATHS, GuidanceConf
 @pytest.mark.parametrize(
     "bad",
     [{"vertex_weight": -1}, {"heuristic_weight": 0.5}, {"window": 0}, {"max_searches": -1},
+     {"max_searches": 1.5}, {"later_max_searches": -1}, {"later_max_searches": True},
      {"time_limit": -0.1}, {"refresh": -2}, {"turn_cost": -1}, {"first_time_limit": -1},
      {"turn_traffic_weight": -0.5}, {"turn_contraflow_weight": -1.0},
      {"turn_lane_paths": -1}, {"turn_lane_paths": MAX_LANE_PATHS + 1},

@@ -186,3 +186,23 @@ def test_a_refreshed_guide_path_is_searched_whole_with_reroute():
     paths = guidance._paths
     cells = paths.pool[paths.start[0] : paths.start[0] + paths.moves[0] + 1]
     assert guidance._cell_row[cells].max() == 2
+
+
+def test_later_steps_keep_to_their_own_search_count_and_start_with_the_robots_left():
+    """``later_max_searches=20``: the first step searches all 30 robots' first guide
+    paths, each later step at most 20. When every robot gets a new goal twice over, the
+    second step leaves 10 unguided (``timed_out``), and the third searches those 10
+    before any other, so no robot goes two steps without a guide path."""
+    grid = WarehouseGrid(12, 12)
+    here = np.arange(30) * 4  # cells 0, 4, ..., 116: robots standing still
+    active = np.ones(30, dtype=bool)
+    guidance = TrafficGuidance(grid, GuidanceConfig(later_max_searches=20))
+    guidance.update(here, here + 24, active)
+    assert (guidance.searches, guidance.timed_out) == (30, 0)
+    guidance.update(here, here + 25, active)  # every robot a new goal: 30 searches needed
+    assert (guidance.searches, guidance.timed_out) == (20, 10)
+    left = np.flatnonzero(~guidance._guided)
+    assert len(left) == 10
+    guidance.update(here, here + 26, active)  # and again
+    assert (guidance.searches, guidance.timed_out) == (20, 10)
+    assert guidance._guided[left].all()

@@ -51,9 +51,10 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   on big fleets).
 - Bounded work: at most ``max_searches`` searches and ``time_limit`` seconds of guidance
   a step; robots left without a guide path are valued by PIBT's own distances (``NaN``
-  values), so a step is always PIBT's, and every plan traffic grants. The first step,
-  when every robot needs its first guide path, can have a bound of its own
-  (``first_time_limit``; ``math.inf`` for none). The searches run in batches of
+  values), so a step is always PIBT's, and every plan traffic grants; the next step
+  searches them first. The first step, when every robot needs its first guide path, can
+  have a time bound of its own (``first_time_limit``; ``math.inf`` for none), and the
+  later steps a count of their own (``later_max_searches``). The searches run in batches of
   ``search_batch`` (the first step's: ``first_search_batch``, at most a hundredth of
   its searches) against one flow, on
   ``workers`` threads (:mod:`~warehouse_phys.planners.guide_searches`): the same paths
@@ -137,7 +138,7 @@ class TrafficGuidance:
         self._first = True  # no step planned yet: first_time_limit bounds the next
         self._guided = np.zeros(0, dtype=bool)  # robots with a guide path after the update
         #: Guide-path searches made in the last step, and robots left unguided because
-        #: the step's time ran out.
+        #: the step's time or searches ran out.
         self.searches = 0
         self.timed_out = 0
         #: Wall time of the last step's searches [s].
@@ -181,6 +182,9 @@ class TrafficGuidance:
             self._paths = GuidePaths.empty(len(here))
         self._hold(np.sort(np.asarray([] if held is None else held, dtype=np.int64)))
         limit, batch, share = self.config.time_limit, self.config.search_batch, None
+        budget = self.config.max_searches
+        if not self._first and self.config.later_max_searches is not None:
+            budget = self.config.later_max_searches
         if self._first and self.config.first_time_limit is not None:
             limit = self.config.first_time_limit
         if self._first and self.config.first_search_batch is not None:
@@ -207,7 +211,7 @@ class TrafficGuidance:
                 self.lanes[:] = self._laid_lanes + self.learner.lanes()
         if facing is not None and self.learner is not None and self.learner.observe(column):
             self.lanes[:] = self._laid_lanes + self.learner.lanes()
-        self._search_paths(column, status, active, deadline, batch, share)
+        self._search_paths(column, status, active, deadline, budget, batch, share)
         if share is not None and self.config.search_batch == 1:
             self._searches.close()  # later steps search one at a time: no threads needed
         self._guided = status == 0
@@ -249,20 +253,21 @@ class TrafficGuidance:
         status: np.ndarray,
         active: np.ndarray,
         deadline: float | None,
+        budget: int | None,
         batch_size: int,
         batch_share: float | None = None,
     ) -> None:
         """Search the guide paths of the active robots that need one (``status`` 1), then
         refresh ``refresh`` others in turn, in batches of ``batch_size`` (and at most
-        ``batch_share`` of the searches, if given) within the step's bounds; ``status``
-        becomes 0 for every robot that has a guide path after."""
+        ``batch_share`` of the searches, if given), at most ``budget`` searches and
+        before ``deadline``; ``status`` becomes 0 for every robot that has a guide path
+        after. Where a bound leaves robots unsearched, the next step starts with them."""
         n = len(column)
         order = np.roll(np.arange(n), -self._turn)  # who comes first turns round the fleet
         reachable = self._column[self._paths.goal[order]] >= 0
         needed = order[(status[order] == 1) & active[order] & reachable].tolist()
         others = order[(status[order] == 0) & active[order]][: self.config.refresh].tolist()
         self._turn = (self._turn + max(1, self.config.refresh)) % max(n, 1)
-        budget = self.config.max_searches
         self.searches, self.timed_out = 0, 0
         robots, refreshed = [*needed, *others], set(others)
         if batch_share is not None:
@@ -273,7 +278,7 @@ class TrafficGuidance:
                 deadline is not None and time.perf_counter() > deadline
             ):
                 self.timed_out = max(0, len(needed) - self.searches)
-                if deadline is not None and self.timed_out:  # the next step starts there
+                if self.timed_out:  # the next step starts with the robots left
                     self._turn = robots[self.searches]
                 break
             size = batch_size
