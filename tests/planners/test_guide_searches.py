@@ -36,13 +36,18 @@ def test_a_batch_finds_the_same_paths_on_any_number_of_threads(seed, searches, t
     goals = rng.integers(0, n, searches).tolist()
     facings = (rng.integers(0, 4, searches) if turning else np.full(searches, -1)).tolist()
     costs = np.array([0.5, 4.0, 1.0, 1.0, 0.5])
-    found = [GuideSearches(row, col, workers).search(graph, flow, lanes, sources, goals,
-                                                     facings, costs)
-             for workers in (1, 2, 3)]  # fmt: skip
+    searchers = [GuideSearches(row, col, workers) for workers in (1, 2, 3)]
+    found = [searcher.search(graph, flow, lanes, sources, goals, facings, costs)
+             for searcher in searchers]  # fmt: skip
     for other in found[1:]:
         assert [None if p is None else p.tolist() for p in other] == [
             None if p is None else p.tolist() for p in found[0]
         ]
+    # The cells expanded are the batch's work: the same on any number of threads, at
+    # least one a search that moves (its source), at most every cell a search.
+    assert len({searcher.expanded for searcher in searchers}) == 1
+    moving = sum(source != goal for source, goal in zip(sources, goals, strict=True))
+    assert moving <= searchers[0].expanded <= moving * n
     for path, source, goal in zip(found[0], sources, goals, strict=True):
         if path is None:
             continue

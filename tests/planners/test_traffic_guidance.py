@@ -206,3 +206,28 @@ def test_later_steps_keep_to_their_own_search_count_and_start_with_the_robots_le
     guidance.update(here, here + 26, active)  # and again
     assert (guidance.searches, guidance.timed_out) == (20, 10)
     assert guidance._guided[left].all()
+
+
+def test_later_steps_stop_searching_once_their_searches_have_expanded_the_bound():
+    """``later_max_expanded``: the first step searches every robot whatever the bound; a
+    later step begins no search once its searches have expanded the bound's cells, so a
+    bound of one cell lets one search a step, and a bound above a step's work lets all."""
+    grid = WarehouseGrid(12, 12)
+    here = np.arange(30) * 4
+    active = np.ones(30, dtype=bool)
+    steps = {}
+    for bound in (1, 10**9):
+        guidance = TrafficGuidance(grid, GuidanceConfig(later_max_expanded=bound))
+        guidance.update(here, here + 24, active)
+        assert (guidance.searches, guidance.timed_out) == (30, 0)
+        assert guidance.expanded >= 30
+        guidance.update(here, here + 25, active)
+        steps[bound] = (guidance.searches, guidance.timed_out, guidance.expanded)
+        searched = np.flatnonzero(guidance._guided)
+        guidance.update(here, here + 25, active)  # the same goals: the others still need one
+        if bound == 1:  # the robot searched keeps its path, and one more is searched
+            assert guidance._guided[searched].all()
+            assert guidance._guided.sum() == 2
+    assert steps[1][:2] == (1, 29)
+    assert steps[10**9][:2] == (30, 0)
+    assert steps[1][2] < steps[10**9][2]

@@ -107,6 +107,9 @@ class GuideSearches:
         self._buffers += [None] * (self.workers - 1)
         self._pool: ThreadPoolExecutor | None = None
         self._pool_pid = 0  # the process that started the pool's threads
+        #: Cells the last batch's searches expanded, together (the same on any machine
+        #: and for any number of workers).
+        self.expanded = 0
 
     def search(
         self,
@@ -120,15 +123,17 @@ class GuideSearches:
     ) -> list[np.ndarray | None]:
         """The guide path (map columns, source first, goal last) of each search of the
         batch, ``None`` where the goal cannot be reached; every search against ``flow``
-        and ``lanes`` as they are now (neither is written)."""
+        and ``lanes`` as they are now (neither is written). :attr:`expanded` becomes the
+        cells the batch's searches expanded, together."""
         found: list[np.ndarray | None] = [None] * len(sources)
+        expanded = [0] * len(sources)
 
         def run(worker: int) -> None:
             buffers = self._buffers[worker]
             if buffers is None:  # this thread's alone to write
                 buffers = self._buffers[worker] = _Buffers(len(self.cell_row))
             for k in range(worker, len(sources), self.workers):
-                moves = traffic_flow.congestion_path(
+                moves, expanded[k] = traffic_flow.congestion_path(
                     graph, self.cell_row, self.cell_col, flow, lanes, sources[k], goals[k],
                     costs, buffers.scratch, buffers.g_cost, buffers.next_generation(),
                     buffers.path, facings[k])  # fmt: skip
@@ -136,6 +141,7 @@ class GuideSearches:
 
         if self.workers == 1 or len(sources) == 1:
             run(0)
+            self.expanded = sum(expanded)
             return found
         # A process forked from the one that started the threads has none of them: its
         # pool would wait for ever, so it starts its own.
@@ -144,6 +150,7 @@ class GuideSearches:
             self._pool_pid = os.getpid()
         for future in [self._pool.submit(run, w) for w in range(self.workers)]:
             future.result()
+        self.expanded = sum(expanded)
         return found
 
     def __getstate__(self) -> dict[str, object]:

@@ -57,7 +57,7 @@ def congestion_path(
     generation: int,
     path: np.ndarray,
     facing: int = -1,
-) -> int:
+) -> tuple[int, int]:
     """A* from ``source`` to ``goal`` (columns) on moves priced by traffic (Chen, Harabor,
     Li and Stuckey's guide paths, their sum objective): a move from ``u`` to ``v`` by move
     ``k`` costs ``1 + costs[0] * (guide paths leaving v) + costs[1] * (flow[u, k] + 1) *
@@ -66,8 +66,9 @@ def congestion_path(
     the vertex flow does not count). Its
     heuristic is ``costs[2]`` times the Manhattan distance (1: consistent, the path is
     the cheapest; above 1, weighted A*, fewer expansions for dearer paths). Writes the
-    path, ``source`` first and ``goal`` last, into ``path`` and returns its moves, or -1
-    if ``goal`` cannot be reached. ``scratch`` (``(n, 4)`` int32) and ``generation`` work
+    path, ``source`` first and ``goal`` last, into ``path`` and returns its moves (-1 if
+    ``goal`` cannot be reached) and the cells the search expanded, the measure of its
+    work that does not depend on the machine. ``scratch`` (``(n, 4)`` int32) and ``generation`` work
     as in :func:`~warehouse_phys.planners.graph_search.shortest_path`; ``g_cost`` (``(n,)``
     float64) holds the costs so far.
 
@@ -80,7 +81,7 @@ def congestion_path(
     ``costs[3] * (1 + costs[4] * guide paths leaving the cell)``."""
     if source == goal:
         path[0] = source
-        return 0
+        return 0, 0
     capacity = 1024
     keys = np.empty(capacity, dtype=np.int64)
     items = np.empty(capacity, dtype=np.int32)
@@ -89,19 +90,20 @@ def congestion_path(
     g_cost[source] = 0.0
     goal_row, goal_col = cell_row[goal], cell_col[goal]
     _heap_push(keys, items, 0, low, source)
-    size = 1
+    size, expanded = 1, 0
     while size > 0:
         cell = _heap_pop(keys, items, size)
         size -= 1
         if scratch[cell, 3] == generation:
             continue  # expanded already (a stale entry)
         scratch[cell, 3] = generation
+        expanded += 1
         if cell == goal:
             length = scratch[cell, 1]
             for j in range(length, -1, -1):
                 path[j] = cell
                 cell = scratch[cell, 2]
-            return length
+            return length, expanded
         g, depth = g_cost[cell], scratch[cell, 1] + 1
         came = facing  # the move it made into this cell (turning robots only)
         turn = 0.0  # the price of a quarter turn here
@@ -133,7 +135,7 @@ def congestion_path(
             f = np.int64((cost + costs[2] * h) * 256.0)
             _heap_push(keys, items, size, (f << 20) | (low - min(depth, low)), other)
             size += 1
-    return -1
+    return -1, expanded
 
 
 @njit(cache=True, nogil=True)

@@ -54,7 +54,9 @@ path* priced by the others' guide paths, and let PIBT follow it. Here:
   values), so a step is always PIBT's, and every plan traffic grants; the next step
   searches them first. The first step, when every robot needs its first guide path, can
   have a time bound of its own (``first_time_limit``; ``math.inf`` for none), and the
-  later steps a count of their own (``later_max_searches``). The searches run in batches of
+  later steps a count of their own (``later_max_searches``) and a bound on the cells
+  their searches expand (``later_max_expanded``: their work, the same on any machine).
+  The searches run in batches of
   ``search_batch`` (the first step's: ``first_search_batch``, at most a hundredth of
   its searches) against one flow, on
   ``workers`` threads (:mod:`~warehouse_phys.planners.guide_searches`): the same paths
@@ -137,9 +139,10 @@ class TrafficGuidance:
         self._turn = 0  # the next robot whose guide path is refreshed
         self._first = True  # no step planned yet: first_time_limit bounds the next
         self._guided = np.zeros(0, dtype=bool)  # robots with a guide path after the update
-        #: Guide-path searches made in the last step, and robots left unguided because
-        #: the step's time or searches ran out.
+        #: Guide-path searches made in the last step, the cells they expanded together,
+        #: and robots left unguided because the step's time, searches or cells ran out.
         self.searches = 0
+        self.expanded = 0
         self.timed_out = 0
         #: Wall time of the last step's searches [s].
         self.search_seconds = 0.0
@@ -182,9 +185,11 @@ class TrafficGuidance:
             self._paths = GuidePaths.empty(len(here))
         self._hold(np.sort(np.asarray([] if held is None else held, dtype=np.int64)))
         limit, batch, share = self.config.time_limit, self.config.search_batch, None
-        budget = self.config.max_searches
-        if not self._first and self.config.later_max_searches is not None:
-            budget = self.config.later_max_searches
+        budget, work = self.config.max_searches, None
+        if not self._first:
+            if self.config.later_max_searches is not None:
+                budget = self.config.later_max_searches
+            work = self.config.later_max_expanded
         if self._first and self.config.first_time_limit is not None:
             limit = self.config.first_time_limit
         if self._first and self.config.first_search_batch is not None:
@@ -211,7 +216,7 @@ class TrafficGuidance:
                 self.lanes[:] = self._laid_lanes + self.learner.lanes()
         if facing is not None and self.learner is not None and self.learner.observe(column):
             self.lanes[:] = self._laid_lanes + self.learner.lanes()
-        self._search_paths(column, status, active, deadline, budget, batch, share)
+        self._search_paths(column, status, active, deadline, budget, work, batch, share)
         if share is not None and self.config.search_batch == 1:
             self._searches.close()  # later steps search one at a time: no threads needed
         self._guided = status == 0
@@ -254,28 +259,32 @@ class TrafficGuidance:
         active: np.ndarray,
         deadline: float | None,
         budget: int | None,
+        work: int | None,
         batch_size: int,
         batch_share: float | None = None,
     ) -> None:
         """Search the guide paths of the active robots that need one (``status`` 1), then
         refresh ``refresh`` others in turn, in batches of ``batch_size`` (and at most
-        ``batch_share`` of the searches, if given), at most ``budget`` searches and
-        before ``deadline``; ``status`` becomes 0 for every robot that has a guide path
-        after. Where a bound leaves robots unsearched, the next step starts with them."""
+        ``batch_share`` of the searches, if given), at most ``budget`` searches, no batch
+        begun once they have expanded ``work`` cells, and none after ``deadline``;
+        ``status`` becomes 0 for every robot that has a guide path after. Where a bound
+        leaves robots unsearched, the next step starts with them."""
         n = len(column)
         order = np.roll(np.arange(n), -self._turn)  # who comes first turns round the fleet
         reachable = self._column[self._paths.goal[order]] >= 0
         needed = order[(status[order] == 1) & active[order] & reachable].tolist()
         others = order[(status[order] == 0) & active[order]][: self.config.refresh].tolist()
         self._turn = (self._turn + max(1, self.config.refresh)) % max(n, 1)
-        self.searches, self.timed_out = 0, 0
+        self.searches, self.timed_out, self.expanded = 0, 0, 0
         robots, refreshed = [*needed, *others], set(others)
         if batch_share is not None:
             batch_size = max(1, min(batch_size, int(len(robots) * batch_share)))
         begun = time.perf_counter()
         while self.searches < len(robots):
-            if (budget is not None and self.searches >= budget) or (
-                deadline is not None and time.perf_counter() > deadline
+            if (
+                (budget is not None and self.searches >= budget)
+                or (work is not None and self.expanded >= work)
+                or (deadline is not None and time.perf_counter() > deadline)
             ):
                 self.timed_out = max(0, len(needed) - self.searches)
                 if self.timed_out:  # the next step starts with the robots left
@@ -290,6 +299,7 @@ class TrafficGuidance:
             for i, found in zip(batch, self._search(batch, column, tails), strict=True):
                 status[i] = 0 if found else 1
             self.searches += len(batch)
+            self.expanded += self._searches.expanded
         self.search_seconds = time.perf_counter() - begun
 
     def _tails(self, robots: list[int], refreshed: set[int]) -> list[np.ndarray | None]:
