@@ -137,9 +137,9 @@ class GuidanceConfig:
     #: Most cells the guide-path searches of each step after the first may expand
     #: together (None: no bound), checked before each batch (a batch begun finishes).
     #: The cells a search expands are its work: a bound on them bounds a step's searches
-    #: about as a time limit would, on any map (a search there costs from under 1 ms to
-    #: over 10 ms), and is the same on any machine. Robots left over are treated as
-    #: ``later_max_searches`` leaves them.
+    #: about as a time limit would, on any map (a search takes under 1 ms on one and
+    #: over 10 ms on another), and is the same on any machine. Robots left over are
+    #: treated as ``later_max_searches`` leaves them.
     later_max_expanded: int | None = None
     #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
     #: each batch of searches: the robots left get PIBT's distances (and the run may

@@ -67,9 +67,9 @@ def congestion_path(
     heuristic is ``costs[2]`` times the Manhattan distance (1: consistent, the path is
     the cheapest; above 1, weighted A*, fewer expansions for dearer paths). Writes the
     path, ``source`` first and ``goal`` last, into ``path`` and returns its moves (-1 if
-    ``goal`` cannot be reached) and the cells the search expanded, the measure of its
-    work that does not depend on the machine. ``scratch`` (``(n, 4)`` int32) and ``generation`` work
-    as in :func:`~warehouse_phys.planners.graph_search.shortest_path`; ``g_cost`` (``(n,)``
+    ``goal`` cannot be reached) and the cells the search expanded (its work, which does
+    not depend on the machine). ``scratch`` (``(n, 4)`` int32) and ``generation`` work as
+    in :func:`~warehouse_phys.planners.graph_search.shortest_path`; ``g_cost`` (``(n,)``
     float64) holds the costs so far.
 
     A turning robot (``facing``: the move it faces, else -1) also pays ``costs[3]`` for
