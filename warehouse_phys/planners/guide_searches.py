@@ -141,15 +141,14 @@ class GuideSearches:
 
         if self.workers == 1 or len(sources) == 1:
             run(0)
-            self.expanded = sum(expanded)
-            return found
-        # A process forked from the one that started the threads has none of them: its
-        # pool would wait for ever, so it starts its own.
-        if self._pool is None or self._pool_pid != os.getpid():
-            self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="guide-search")
-            self._pool_pid = os.getpid()
-        for future in [self._pool.submit(run, w) for w in range(self.workers)]:
-            future.result()
+        else:
+            # A process forked from the one that started the threads has none of them:
+            # its pool would wait for ever, so it starts its own.
+            if self._pool is None or self._pool_pid != os.getpid():
+                self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="guide-search")
+                self._pool_pid = os.getpid()
+            for future in [self._pool.submit(run, w) for w in range(self.workers)]:
+                future.result()
         self.expanded = sum(expanded)
         return found
 
