@@ -198,3 +198,17 @@ def test_guidance_sets_the_entrys_fields_over_its_own():
         entry_planner("pibt", grid, guidance={"window": 3})
     planner = EntryPlanner(grid, steps=2, planner="guided-repair", guidance={"iterations": 5})
     assert planner.planner.repair.iterations == 5
+
+
+def test_the_entrys_planner_counts_the_cores_when_it_is_made(monkeypatch):
+    """The entry's guide-path threads are the cores the process may run on when its
+    planner is made (the kit's process may be given fewer after import), unless set."""
+    from warehouse_phys.lorr.startkit import planner
+    from warehouse_phys.world.grid import WarehouseGrid
+
+    monkeypatch.setattr(planner, "default_workers", lambda: 3)
+    grid = WarehouseGrid(3, 4)
+    for name in ("guided", "guided-ops-repair"):  # its own; the others: named_planner
+        assert planner.entry_planner(name, grid).guidance.config.workers == 3
+        made = planner.entry_planner(name, grid, guidance={"workers": 1})
+        assert made.guidance.config.workers == 1

@@ -3,6 +3,7 @@ the robots it plans; other names and robots are refused by name."""
 
 import pytest
 
+from warehouse_phys.planners import named
 from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.named import (
     OPERATION_DEPTH,
@@ -43,6 +44,17 @@ def test_guidance_and_repair_settings_reach_the_planner():
     assert setup.repair["neighbourhood"] == 4
     planner = named_planner("guided-repair", FLOOR, moves="rotate", iterations=7)
     assert planner.repair.iterations == 7
+
+
+def test_a_planner_counts_the_cores_when_it_is_made_not_when_the_table_was(monkeypatch):
+    """The planners' threads (``workers``) are the cores the process may run on when the
+    planner is made, unless given: a process given fewer cores after the tables were made
+    (a Ray worker, say) gets as many threads as it has cores."""
+    monkeypatch.setattr(named, "default_workers", lambda: 3)
+    for name in PLANNERS[1:]:
+        assert planner_setup(name).config.workers == 3
+        assert planner_setup(name, workers=1).config.workers == 1
+    assert named_planner("guided", FLOOR).guidance.config.workers == 3
 
 
 def test_unknown_names_and_guidance_for_plain_pibt_are_refused():

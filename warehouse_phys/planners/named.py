@@ -27,7 +27,7 @@ from typing import Any, NamedTuple
 
 from warehouse_phys.planners.distances import DistanceMaps
 from warehouse_phys.planners.guidance import GuidedPIBT
-from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.guidance_config import GuidanceConfig, default_workers
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.planners.repair import WindowRepair
 from warehouse_phys.world.grid import WarehouseGrid
@@ -142,8 +142,9 @@ def planner_setup(name: str, **guidance: Any) -> PlannerSetup:
     config = PLANNER_GUIDANCE.get(base) or PLANNER_OPERATIONS[base]
     if repair is not None:
         config = dataclasses.replace(config, **REPAIR_GUIDANCE)
-    if fields:
-        config = dataclasses.replace(config, **fields)
+    # The tables above were made at import; the cores this process may run on are
+    # counted now (a Ray worker, say, may be given fewer since).
+    config = dataclasses.replace(config, **{"workers": default_workers(), **fields})
     depth = OPERATION_DEPTH if base in PLANNER_OPERATIONS else 0
     return PlannerSetup(config, depth, repair)
 

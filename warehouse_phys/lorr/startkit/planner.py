@@ -43,7 +43,7 @@ from warehouse_phys.execution.plan_checks import NO_ROBOT, rows_cols
 from warehouse_phys.execution.ticks import check_whole
 from warehouse_phys.execution.windows import REPLANS, rotation_heads, without_rotations
 from warehouse_phys.planners.guidance import GuidedPIBT
-from warehouse_phys.planners.guidance_config import GuidanceConfig
+from warehouse_phys.planners.guidance_config import GuidanceConfig, default_workers
 from warehouse_phys.planners.named import named_planner, planner_setup, split_guidance
 from warehouse_phys.planners.pibt import PIBT
 from warehouse_phys.planners.repair import WindowRepair
@@ -108,7 +108,8 @@ def entry_planner(
     guidance = dict(guidance or {})
     if name in ("guided-ops-repair", "guided"):
         fields, repair = split_guidance(name, guidance)
-        config = dataclasses.replace(ENTRY_GUIDANCE, **fields)
+        # The cores are counted now, not when ENTRY_GUIDANCE was made at import.
+        config = dataclasses.replace(ENTRY_GUIDANCE, **{"workers": default_workers(), **fields})
         if name == "guided":
             return GuidedPIBT(grid, seed=seed, moves="rotate", config=config)
         return GuidedPIBT(grid, seed=seed, moves="rotate", config=config,
