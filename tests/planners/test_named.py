@@ -1,12 +1,15 @@
 """The planners by name: every name makes its planner, with its operations and repair, for
 the robots it plans; other names and robots are refused by name."""
 
+import numpy as np
 import pytest
 
 from warehouse_phys.planners import named
 from warehouse_phys.planners.guidance import GuidedPIBT
 from warehouse_phys.planners.named import (
+    LATER_MAX_EXPANDED,
     OPERATION_DEPTH,
+    PLANNER_REPAIRS,
     PLANNERS,
     TURNING_ONLY,
     named_planner,
@@ -55,6 +58,28 @@ def test_a_planner_counts_the_cores_when_it_is_made_not_when_the_table_was(monke
         assert planner_setup(name).config.workers == 3
         assert planner_setup(name, workers=1).config.workers == 1
     assert named_planner("guided", FLOOR).guidance.config.workers == 3
+
+
+def test_a_repairing_planners_later_steps_stop_at_its_bound_on_the_cells_searched(monkeypatch):
+    """The repairing planners bound the cells their later steps' guide-path searches
+    expand (:data:`~warehouse_phys.planners.named.LATER_MAX_EXPANDED`); the others do not,
+    and ``later_max_expanded=None`` lifts it. With a bound of one cell a repairing
+    planner's second step searches one robot's guide path, where every robot needs one."""
+    for name in PLANNER_REPAIRS:
+        assert planner_setup(name).config.later_max_expanded == LATER_MAX_EXPANDED
+        assert planner_setup(name, later_max_expanded=None).config.later_max_expanded is None
+    assert planner_setup("guided-ops").config.later_max_expanded is None
+    monkeypatch.setitem(named.REPAIR_GUIDANCE, "later_max_expanded", 1)
+    grid = WarehouseGrid(8, 8)
+    cells = np.array([(row, col) for row in range(4) for col in (0, 2, 4, 6)])  # 16 robots
+    headings = np.zeros(16, dtype=np.int64)
+    searches = []
+    for name in ("guided-ops-repair", "guided-ops"):
+        planner = named_planner(name, grid, moves="rotate")
+        for shift in ((4, 0), (4, 1)):  # every robot a new goal at the second step
+            planner.plan(cells, cells + shift, headings=headings)
+            searches.append(planner.guidance.searches)
+    assert searches == [16, 1, 16, 16]
 
 
 def test_unknown_names_and_guidance_for_plain_pibt_are_refused():

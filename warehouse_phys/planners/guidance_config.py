@@ -139,7 +139,8 @@ class GuidanceConfig:
     #: The cells a search expands are its work: a bound on them bounds a step's searches
     #: about as a time limit would, on any map (a search takes under 1 ms on one and
     #: over 10 ms on another), and is the same on any machine. Robots left over are
-    #: treated as ``later_max_searches`` leaves them.
+    #: treated as ``later_max_searches`` leaves them. The repairing planners bound it by
+    #: default (:data:`~warehouse_phys.planners.named.LATER_MAX_EXPANDED`).
     later_max_expanded: int | None = None
     #: Most wall-clock time of one step's searches [s] (None: no bound), checked before
     #: each batch of searches: the robots left get PIBT's distances (and the run may

@@ -54,11 +54,21 @@ OPERATION_DEPTH = 3
 #: :class:`~warehouse_phys.planners.repair.WindowRepair`), by name: the planner they
 #: repair, whose guidance they take with :data:`REPAIR_GUIDANCE` on top.
 PLANNER_REPAIRS: dict[str, str] = {"guided-repair": "guided", "guided-ops-repair": "guided-ops"}
-#: The repairing planners' guidance beyond their base's: lanes over the whole floor. Over
-#: the first 300 steps with turning robots (seed 0) they added 1.0 % to the repair's
-#: errands on MR23-I-10 and 5.1 % to its tasks on 2024 WAREHOUSE (the
-#: documentation's LoRR page, ``docs/lorr.md``); not measured on the Kiva floor.
-REPAIR_GUIDANCE: dict[str, Any] = {"floor_lane_paths": 2}
+#: A bound on the cells a repairing planner's later steps may expand in their guide-path
+#: searches (``later_max_expanded``) [cells]: about 1.3 s of one core here. It bounds
+#: the steps where hundreds of robots are pushed off their paths at once (MR23-I-06's
+#: second step: 9.4 million cells, 2.7 s) and leaves the others alone; over 5,000 steps
+#: of MR23-I-06 and MR23-I-10 and the first 1,000 of 2024 WAREHOUSE it cost at most
+#: 0.8 % of the errands or tasks (the documentation's LoRR page, ``docs/lorr.md``).
+LATER_MAX_EXPANDED = 4_000_000
+#: The repairing planners' guidance beyond their base's: lanes over the whole floor (over
+#: the first 300 steps with turning robots, seed 0, they added 1.0 % to the repair's
+#: errands on MR23-I-10 and 5.1 % to its tasks on 2024 WAREHOUSE; not measured on the
+#: Kiva floor), and the bound :data:`LATER_MAX_EXPANDED`.
+REPAIR_GUIDANCE: dict[str, Any] = {
+    "floor_lane_paths": 2,
+    "later_max_expanded": LATER_MAX_EXPANDED,
+}
 #: The repair's settings (:class:`~warehouse_phys.planners.repair.WindowRepair`'s arguments).
 REPAIR: dict[str, Any] = {"neighbourhood": 8, "iterations": 2000}
 #: Fields a repairing planner's ``guidance`` may also set: the repair's.
